@@ -1,0 +1,65 @@
+"""What every behavior shares: exit conditions, the report, and the interface the runner drives.
+
+A behavior only moves the attractor (and may set stiffness/damping at its start); the
+admittance controller does the rest. It ends with exactly one exit condition, after which the
+attractor stays frozen where it was.
+"""
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from enum import StrEnum
+
+from robot_sim.controller import AdmittanceController
+
+
+class ExitCondition(StrEnum):
+    GOAL_REACHED = "goal_reached"
+    WRENCH_BREACH = "wrench_breach"
+    TIMEOUT = "timeout"
+    COMPLETED = "completed"
+    ABORTED = "aborted"
+    FAULT = "fault"
+
+
+@dataclass(frozen=True)
+class Pose:
+    """Base-frame pose: position [m] and unit quaternion [w x y z]."""
+
+    position: tuple[float, float, float]
+    quaternion: tuple[float, float, float, float]
+
+    def as_dict(self) -> dict[str, list[float]]:
+        return {"position": list(self.position), "quaternion": list(self.quaternion)}
+
+
+@dataclass(frozen=True)
+class BehaviorReport:
+    """How a behavior ended, with the figures the paper's tables use."""
+
+    behavior: str
+    exit: ExitCondition
+    started_at: float  # sim time [s]
+    ended_at: float  # sim time [s]
+    peak_force: float  # max |f| over the behavior [N]
+    peak_torque: float  # max |tau| about the port [N m]
+    final_wrench: tuple[float, ...]  # (6,) environment on port, base axes [N, N m]
+    final_port: Pose
+    detail: str = ""
+
+    @property
+    def duration(self) -> float:
+        return self.ended_at - self.started_at
+
+
+class Behavior(ABC):
+    """One compliant behavior; `update` runs every control tick after the port is measured."""
+
+    kind: str
+
+    @abstractmethod
+    def start(self, ctl: AdmittanceController, t: float) -> None:
+        """Take the port pose at start and set up the attractor's motion."""
+
+    @abstractmethod
+    def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:
+        """Move the attractor for time t [s]; return an exit condition to end."""

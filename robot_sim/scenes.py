@@ -1,0 +1,112 @@
+"""Task scenes: which fixtures, which tool, where the arm starts, and what counts as success.
+
+Each scene is an MJCF under assets/scenes plus a success predicate evaluated on the running
+simulation. A seed jitters the fixture's position (a few mm in x and y) so that experiments can
+vary the task; no seed gives the nominal layout.
+"""
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from robot_sim.errors import UnknownNameError
+
+if TYPE_CHECKING:
+    from robot_sim.sim import Simulation
+
+# Tool pointing straight down with the wrist well away from singularities: pitch joints
+# 2, 3 and 5 sum to pi/2.
+HOME_TOOL_DOWN = (0.0, 0.3, 0.2, 0.0, 1.0708, 0.0)
+
+
+@dataclass(frozen=True)
+class TaskProgress:
+    """A scene's success predicate, evaluated now."""
+
+    predicate: str  # what success means, in words
+    success: bool
+    progress: float  # the measured quantity, in `unit`
+    target: float
+    unit: str
+
+
+@dataclass(frozen=True)
+class Scene:
+    name: str
+    description: str
+    scene_file: str
+    tool_file: str
+    home_qpos: tuple[float, ...]
+    fixture_body: str | None  # jittered by a seed
+    jitter_m: float
+    predicate: "Callable[[Simulation], TaskProgress]"
+
+
+def _reach_goal(sim: "Simulation") -> TaskProgress:
+    goal = sim.data.site_xpos[sim.model.site("goal").id]
+    dist = float(np.linalg.norm(sim.controller.p_world_port - goal))
+    return TaskProgress("port within 5 mm of the goal marker", dist <= 0.005, dist, 0.005, "m")
+
+
+def _press_surface(sim: "Simulation") -> TaskProgress:
+    force_z = float(sim.controller.w_world_env_on_port[2])  # plate pushes up on the tool
+    ok = 5.0 <= force_z <= 20.0
+    return TaskProgress("steady press on the plate, normal force 5 to 20 N", ok, force_z, 5.0, "N")
+
+
+def sleeve_insertion_depth(sim: "Simulation") -> float:
+    """Peg top past the sleeve mouth, along the sleeve axis [m] (negative: not yet over it)."""
+    peg_top = sim.data.site_xpos[sim.model.site("peg_top").id]
+    R_world_port = sim.data.site_xmat[sim.layout.port_site].reshape(3, 3)
+    return float(R_world_port[:, 2] @ (peg_top - sim.controller.p_world_port))
+
+
+def _sleeve_on_peg(sim: "Simulation") -> TaskProgress:
+    depth = sleeve_insertion_depth(sim)
+    return TaskProgress("sleeve over the peg, insertion depth >= 30 mm", depth >= 0.030, depth, 0.030, "m")
+
+
+SCENES: dict[str, Scene] = {
+    s.name: s
+    for s in (
+        Scene(
+            "free_space",
+            "The arm alone with a probe tool; a goal marker to reach.",
+            "free_space.xml",
+            "probe.xml",
+            HOME_TOOL_DOWN,
+            None,
+            0.0,
+            _reach_goal,
+        ),
+        Scene(
+            "surface",
+            "A rigid plate under the probe tool (top face at z = 0.220 m).",
+            "surface.xml",
+            "probe.xml",
+            HOME_TOOL_DOWN,
+            "plate_body",
+            0.003,
+            _press_surface,
+        ),
+        Scene(
+            "sleeve_on_peg",
+            "A 25.4 mm peg with a 1.5 mm chamfer under a sleeve of 0.4 mm diametral clearance.",
+            "sleeve_on_peg.xml",
+            "sleeve.xml",
+            HOME_TOOL_DOWN,
+            "peg_base",
+            0.002,
+            _sleeve_on_peg,
+        ),
+    )
+}
+
+
+def get_scene(name: str) -> Scene:
+    try:
+        return SCENES[name]
+    except KeyError:
+        raise UnknownNameError("scene", name, list(SCENES)) from None

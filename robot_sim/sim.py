@@ -1,0 +1,224 @@
+"""One simulated robot: MuJoCo physics, the admittance controller and the behavior runner.
+
+Pacing is not here: `step()` advances one control period as fast as the CPU allows; the
+server paces it to real time, sweeps do not.
+
+Per control period (control_dt = n_substeps * physics_dt):
+    mj_step1                 kinematics and sensors at the current state
+    controller.measure       port pose, compensated wrench
+    behavior.update          moves the attractor, may end with an exit condition
+    controller.command       eq. 5 + DLS -> joint-velocity servo commands
+    mj_step2, then mj_step   the rest of the substeps with the same commands
+"""
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from robot_sim.arm import ArmLayout
+from robot_sim.behaviors.base import Behavior, BehaviorReport, ExitCondition, Pose
+from robot_sim.controller import AdmittanceController
+from robot_sim.errors import RobotSimError, SimulationFault
+from robot_sim.gains import Gains
+from robot_sim.model import PHYSICS_TIMESTEP_S, build_model
+from robot_sim.payload import Payload
+from robot_sim.scenes import Scene, TaskProgress, get_scene
+
+DEFAULT_GAINS = Gains.of([1000, 1000, 1000, 40, 40, 40], [500, 500, 500, 20, 20, 20])
+
+
+@dataclass(frozen=True)
+class RobotState:
+    """What telemetry reports: the API contract's state fields, SI units, base frame."""
+
+    sim_time: float
+    port: Pose
+    attractor: Pose
+    wrench: tuple[float, ...]  # (6,) environment on port [N, N m]
+    joint_positions: tuple[float, ...]  # (6,) [rad]
+    manipulability: float
+    scene: str
+    behavior: str | None
+
+
+def _pose(position: np.ndarray, quaternion: np.ndarray) -> Pose:
+    p = (float(position[0]), float(position[1]), float(position[2]))
+    q = (float(quaternion[0]), float(quaternion[1]), float(quaternion[2]), float(quaternion[3]))
+    return Pose(p, q)
+
+
+class Simulation:
+    """A scene with the arm under admittance control, running one behavior at a time."""
+
+    def __init__(
+        self,
+        scene: str = "free_space",
+        seed: int | None = None,
+        *,
+        gains: Gains = DEFAULT_GAINS,
+        control_hz: float = 1000.0,
+    ) -> None:
+        substeps = 1.0 / (control_hz * PHYSICS_TIMESTEP_S)
+        if control_hz < 500.0 or abs(substeps - round(substeps)) > 1e-9:
+            raise RobotSimError(
+                f"control_hz must be >= 500 and divide the {1 / PHYSICS_TIMESTEP_S:.0f} Hz physics rate, got {control_hz}"
+            )
+        self.n_substeps = int(round(substeps))
+        self.control_dt = self.n_substeps * PHYSICS_TIMESTEP_S
+        self.fault_count = 0
+        self.last_fault: str | None = None
+        self.reset(scene, seed, gains=gains)
+
+    # ------------------------------------------------------------------------- scenes
+    def reset(self, scene: str, seed: int | None = None, *, gains: Gains | None = None) -> None:
+        """Load `scene` fresh, arm at home, compliance on with the attractor on the port."""
+        spec: Scene = get_scene(scene)
+        model = build_model(spec.scene_file, spec.tool_file)
+        if seed is not None and spec.fixture_body is not None:
+            rng = np.random.default_rng(seed)
+            model.body(spec.fixture_body).pos[0:2] += rng.uniform(-spec.jitter_m, spec.jitter_m, 2)
+        data = mujoco.MjData(model)
+        layout = ArmLayout.from_model(model)
+        data.qpos[layout.qpos_adr] = spec.home_qpos
+        data.act[layout.act_adr] = spec.home_qpos
+        mujoco.mj_forward(model, data)
+        self.scene = spec
+        self.seed = seed
+        self.model = model
+        self.data = data
+        self.layout = layout
+        self.payload = Payload.from_model(model, layout)
+        keep = gains if gains is not None else self.controller.gains
+        self.controller = AdmittanceController(model, data, layout, self.payload, keep)
+        self.controller.enable()
+        self.behavior: Behavior | None = None
+        self._behavior_started_at = 0.0
+        self._peak_force = 0.0
+        self._peak_torque = 0.0
+        self.last_report: BehaviorReport | None = None
+
+    @property
+    def time(self) -> float:
+        return float(self.data.time)
+
+    # -------------------------------------------------------------------------- steps
+    def step(self) -> BehaviorReport | None:
+        """Advance one control period; returns the report if a behavior ended in it."""
+        m, d, ctl = self.model, self.data, self.controller
+        try:
+            mujoco.mj_step1(m, d)
+            ctl.measure()
+            report = self._update_behavior() if self.behavior is not None else None
+            ctl.command()
+            mujoco.mj_step2(m, d)
+            if self.n_substeps > 1:
+                mujoco.mj_step(m, d, self.n_substeps - 1)
+            if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number:
+                raise SimulationFault("MuJoCo reported unstable accelerations (bad qacc)")
+        except SimulationFault as fault:
+            return self._recover_from_fault(str(fault))
+        return report
+
+    def run(self, seconds: float) -> list[BehaviorReport]:
+        """Step for `seconds` of sim time; the reports of behaviors that ended meanwhile."""
+        reports = []
+        for _ in range(int(round(seconds / self.control_dt))):
+            report = self.step()
+            if report is not None:
+                reports.append(report)
+        return reports
+
+    # ---------------------------------------------------------------------- behaviors
+    def start(self, behavior: Behavior) -> None:
+        """Start `behavior` now, preempting (aborting) any running one."""
+        if self.behavior is not None:
+            self.abort()
+        self.controller.enabled = True
+        self.behavior = behavior
+        self._behavior_started_at = self.time
+        self._peak_force = 0.0
+        self._peak_torque = 0.0
+        behavior.start(self.controller, self.time)
+
+    def abort(self, detail: str = "aborted") -> BehaviorReport | None:
+        """End the running behavior `aborted`; the attractor freezes where it is."""
+        if self.behavior is None:
+            return None
+        return self._finish(ExitCondition.ABORTED, detail)
+
+    def run_behavior(self, behavior: Behavior, max_seconds: float = 700.0) -> BehaviorReport:
+        """Start `behavior` and step until it ends (its watchdog ends it in bounded time)."""
+        self.start(behavior)
+        for _ in range(int(round(max_seconds / self.control_dt))):
+            report = self.step()
+            if report is not None:
+                return report
+        report = self.abort(f"still running after {max_seconds} s")
+        assert report is not None
+        return report
+
+    def _update_behavior(self) -> BehaviorReport | None:
+        assert self.behavior is not None
+        w = self.controller.w_world_env_on_port
+        force = mujoco.mju_norm3(w[0:3])
+        torque = mujoco.mju_norm3(w[3:6])
+        if force > self._peak_force:
+            self._peak_force = force
+        if torque > self._peak_torque:
+            self._peak_torque = torque
+        exit_condition = self.behavior.update(self.controller, self.time)
+        if exit_condition is None:
+            return None
+        return self._finish(exit_condition)
+
+    def _finish(self, exit_condition: ExitCondition, detail: str = "") -> BehaviorReport:
+        assert self.behavior is not None
+        ctl = self.controller
+        report = BehaviorReport(
+            behavior=self.behavior.kind,
+            exit=exit_condition,
+            started_at=self._behavior_started_at,
+            ended_at=self.time,
+            peak_force=self._peak_force,
+            peak_torque=self._peak_torque,
+            final_wrench=tuple(float(v) for v in ctl.w_world_env_on_port),
+            final_port=_pose(ctl.p_world_port, ctl.q_world_port),
+            detail=detail,
+        )
+        self.behavior = None  # the attractor stays where the behavior left it
+        self.last_report = report
+        return report
+
+    def _recover_from_fault(self, message: str) -> BehaviorReport | None:
+        """End the behavior `fault` and reload the scene at home: a safe, known state."""
+        self.fault_count += 1
+        self.last_fault = message
+        report = self._finish(ExitCondition.FAULT, message) if self.behavior is not None else None
+        self.reset(self.scene.name, self.seed)
+        self.last_report = report if report is not None else self.last_report
+        return report
+
+    # -------------------------------------------------------------------------- state
+    def state(self) -> RobotState:
+        ctl = self.controller
+        return RobotState(
+            sim_time=self.time,
+            port=_pose(ctl.p_world_port, ctl.q_world_port),
+            attractor=_pose(ctl.p_world_attractor, ctl.q_world_attractor),
+            wrench=tuple(float(v) for v in ctl.w_world_env_on_port),
+            joint_positions=tuple(float(v) for v in self.data.qpos[self.layout.qpos_adr]),
+            manipulability=ctl.manipulability,
+            scene=self.scene.name,
+            behavior=self.behavior.kind if self.behavior is not None else None,
+        )
+
+    def task(self) -> TaskProgress:
+        return self.scene.predicate(self)
+
+    def hold_position(self) -> BehaviorReport | None:
+        """Stop: end any behavior `aborted` and put the attractor on the port pose."""
+        report = self.abort("stopped")
+        self.controller.place_attractor_from_port(np.zeros(6))
+        self.controller.enabled = True
+        return report
