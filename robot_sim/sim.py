@@ -4,11 +4,13 @@ Pacing is not here: `step()` advances one control period as fast as the CPU allo
 server paces it to real time, sweeps do not.
 
 Per control period (control_dt = n_substeps * physics_dt):
-    mj_step1                 kinematics and sensors at the current state
-    controller.measure       port pose, compensated wrench
+    controller.measure       compensated wrench from the sensor
     behavior.update          moves the attractor, may end with an exit condition
     controller.command       eq. 5 + DLS -> joint-velocity servo commands
-    mj_step2, then mj_step   the rest of the substeps with the same commands
+    mj_step x n_substeps     physics with those commands held
+
+Kinematics and sensors in MjData are those mj_step computed at the start of its last step,
+so the controller sees the robot 1 ms late, as it would a real sensor and servo bus.
 """
 
 from dataclasses import dataclass
@@ -23,9 +25,15 @@ from robot_sim.errors import RobotSimError, SimulationFault
 from robot_sim.gains import Gains
 from robot_sim.model import PHYSICS_TIMESTEP_S, build_model
 from robot_sim.payload import Payload
+from robot_sim.presets import default_presets
 from robot_sim.scenes import Scene, TaskProgress, get_scene
 
-DEFAULT_GAINS = Gains.of([1000, 1000, 1000, 40, 40, 40], [500, 500, 500, 20, 20, 20])
+
+
+def default_gains() -> Gains:
+    """The config's default stiffness/damping preset."""
+    presets = default_presets()
+    return presets.stiffness_preset(presets.default_stiffness).to_gains()
 
 
 @dataclass(frozen=True)
@@ -56,7 +64,7 @@ class Simulation:
         scene: str = "free_space",
         seed: int | None = None,
         *,
-        gains: Gains = DEFAULT_GAINS,
+        gains: Gains | None = None,
         control_hz: float = 1000.0,
     ) -> None:
         substeps = 1.0 / (control_hz * PHYSICS_TIMESTEP_S)
@@ -68,7 +76,7 @@ class Simulation:
         self.control_dt = self.n_substeps * PHYSICS_TIMESTEP_S
         self.fault_count = 0
         self.last_fault: str | None = None
-        self.reset(scene, seed, gains=gains)
+        self.reset(scene, seed, gains=gains if gains is not None else default_gains())
 
     # ------------------------------------------------------------------------- scenes
     def reset(self, scene: str, seed: int | None = None, *, gains: Gains | None = None) -> None:
@@ -105,17 +113,22 @@ class Simulation:
     # -------------------------------------------------------------------------- steps
     def step(self) -> BehaviorReport | None:
         """Advance one control period; returns the report if a behavior ended in it."""
-        m, d, ctl = self.model, self.data, self.controller
+        # Runs at 1 kHz: locals and few attribute look-ups on purpose.
+        ctl = self.controller
+        behavior = self.behavior
+        report = None
         try:
-            mujoco.mj_step1(m, d)
             ctl.measure()
-            report = self._update_behavior() if self.behavior is not None else None
+            if behavior is not None:
+                if ctl.force_norm > self._peak_force:
+                    self._peak_force = ctl.force_norm
+                if ctl.torque_norm > self._peak_torque:
+                    self._peak_torque = ctl.torque_norm
+                exit_condition = behavior.update(ctl, self.data.time)
+                if exit_condition is not None:
+                    report = self._finish(exit_condition)
             ctl.command()
-            mujoco.mj_step2(m, d)
-            if self.n_substeps > 1:
-                mujoco.mj_step(m, d, self.n_substeps - 1)
-            if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number:
-                raise SimulationFault("MuJoCo reported unstable accelerations (bad qacc)")
+            mujoco.mj_step(self.model, self.data, self.n_substeps)
         except SimulationFault as fault:
             return self._recover_from_fault(str(fault))
         return report
@@ -157,20 +170,6 @@ class Simulation:
         report = self.abort(f"still running after {max_seconds} s")
         assert report is not None
         return report
-
-    def _update_behavior(self) -> BehaviorReport | None:
-        assert self.behavior is not None
-        w = self.controller.w_world_env_on_port
-        force = mujoco.mju_norm3(w[0:3])
-        torque = mujoco.mju_norm3(w[3:6])
-        if force > self._peak_force:
-            self._peak_force = force
-        if torque > self._peak_torque:
-            self._peak_torque = torque
-        exit_condition = self.behavior.update(self.controller, self.time)
-        if exit_condition is None:
-            return None
-        return self._finish(exit_condition)
 
     def _finish(self, exit_condition: ExitCondition, detail: str = "") -> BehaviorReport:
         assert self.behavior is not None

@@ -1,0 +1,94 @@
+"""Benchmark: the 1 kHz admittance loop with 1 ms physics, against bare mj_step.
+
+Prints JSON: {"raw_step_hz", "free": {"rtf", "ratio_to_raw"}, "contact": {...}}. `rtf` is sim
+seconds per wall second on one core; `ratio_to_raw` is the loop's cost per physics step over
+a bare Python loop of mj_step on the same model, measured in the same run (machines are noisy,
+ratios less so). Each figure is the best of REPEATS runs.
+
+    python -m bench.sim [--seconds 5]
+"""
+
+import argparse
+import json
+import time
+from collections.abc import Callable
+
+import mujoco
+
+from robot_sim.behaviors.ptwl import Ptwl
+from robot_sim.params import PtwlParams
+from robot_sim.sim import Simulation
+
+REPEATS = 3
+
+
+def raw_step_seconds(sim: Simulation, steps: int) -> float:
+    """Wall time per bare mj_step of the same model and state (a Python loop, as ours is)."""
+    model, data = sim.model, sim.data
+    best = float("inf")
+    for _ in range(REPEATS):
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            mujoco.mj_step(model, data)
+        best = min(best, (time.perf_counter() - t0) / steps)
+    return best
+
+
+def loop_step_seconds(sim: Simulation, steps: int) -> float:
+    best = float("inf")
+    for _ in range(REPEATS):
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            sim.step()
+        best = min(best, (time.perf_counter() - t0) / steps)
+    return best
+
+
+def free_space_sim() -> Simulation:
+    """PTWL sweeping in free space (behavior running every tick)."""
+    sim = Simulation("free_space")
+    sim.start(Ptwl(PtwlParams(translation=[0.1, 0.05, -0.05], rotation=[0.0, 0.3, 0.2], duration=600)))
+    return sim
+
+
+def contact_sim() -> Simulation:
+    """PTWL pressing the probe 10 mm past the plate and holding (contact every tick)."""
+    sim = Simulation("surface")
+    overshoot_target = [0.0, 0.0, 0.0466 + 0.010]  # tool z points down: into the plate
+    sim.start(Ptwl(PtwlParams(translation=overshoot_target, duration=1.0, force_threshold=100, watchdog=600)))
+    sim.run(2.0)
+    if sim.data.ncon == 0:
+        raise RuntimeError("contact benchmark is not in contact")
+    return sim
+
+
+def measure(make: Callable[[], Simulation], steps: int) -> tuple[float, float]:
+    sim = make()
+    loop = loop_step_seconds(sim, steps)
+    raw = raw_step_seconds(sim, steps)
+    return loop, raw
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=5.0, help="sim seconds per measurement")
+    args = parser.parse_args()
+    steps = int(args.seconds * 1000)
+    result: dict[str, object] = {}
+    raws = []
+    for name, make in (("free", free_space_sim), ("contact", contact_sim)):
+        loop, raw = measure(make, steps)
+        raws.append(raw)
+        sim_dt = 0.001
+        result[name] = {
+            "rtf": round(sim_dt / loop, 1),
+            "ratio_to_raw": round(loop / raw, 2),
+            "loop_us_per_tick": round(loop * 1e6, 2),
+            "raw_us_per_step": round(raw * 1e6, 2),
+        }
+    result = {"raw_step_hz": round(1.0 / min(raws)), **result}
+    print(json.dumps(result))
+
+
+if __name__ == "__main__":
+    main()

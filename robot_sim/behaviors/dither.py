@@ -1,0 +1,91 @@
+"""Dither (paper 2.2.3): wiggle the attractor while it advances or retreats along an axis.
+
+`axis` is given in the tool frame and fixed in base axes at the start. The attractor's centre
+moves from the port at start by `travel` along the axis (push: forward, pull: backward) over
+`duration`, and around that centre:
+
+- torsional: the attractor's orientation is tilted by `amplitude` [rad] about an axis
+  perpendicular to the dither axis, and that tilt direction circles the axis at `frequency`
+  (a conical wobble about the port's origin, which stays on the axis);
+- translational: the orientation is fixed and the origin circles the axis at radius
+  `amplitude` [m] at `frequency`.
+
+The wiggle's amplitude ramps in over its first cycle so starting in contact does not kick.
+Exits: `wrench_breach` (thresholds), `goal_reached` when the port has advanced the travel (to
+within TRAVEL_TOLERANCE_M), `timeout` at the watchdog.
+"""
+
+import math
+
+import mujoco
+import numpy as np
+
+from robot_sim.behaviors.base import Behavior, ExitCondition
+from robot_sim.controller import AdmittanceController, rotate_world
+from robot_sim.params import DitherParams
+
+TRAVEL_TOLERANCE_M = 0.001
+
+
+def perpendicular_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors completing `axis` (unit) to a right-handed frame."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(axis, helper)
+    e1 /= np.linalg.norm(e1)
+    return e1, np.cross(axis, e1)
+
+
+class Dither(Behavior):
+    kind = "dither"
+
+    def __init__(self, params: DitherParams) -> None:
+        self.params = params
+        self.axis_world = np.zeros(3)
+        self._e1 = np.zeros(3)
+        self._e2 = np.zeros(3)
+        self._p_world_start = np.zeros(3)
+        self._q_world_start = np.zeros(4)
+        self._sign = 1.0 if params.direction == "push" else -1.0
+        self._wiggle = np.zeros(3)
+        self._q_tmp = np.zeros(4)
+        self._t0 = 0.0
+
+    def start(self, ctl: AdmittanceController, t: float) -> None:
+        self._t0 = t
+        self._p_world_start[:] = ctl.p_world_port
+        self._q_world_start[:] = ctl.q_world_port
+        axis_tool = np.asarray(self.params.axis, dtype=float)
+        axis_tool /= np.linalg.norm(axis_tool)
+        R_world_port = np.zeros(9)
+        mujoco.mju_quat2Mat(R_world_port, self._q_world_start)
+        self.axis_world[:] = R_world_port.reshape(3, 3) @ axis_tool
+        self._e1[:], self._e2[:] = perpendicular_basis(self.axis_world)
+        ctl.place_attractor_from_port(np.zeros(6))
+
+    def progress(self, ctl: AdmittanceController) -> float:
+        """How far the port has gone along the axis in the commanded direction [m]."""
+        moved = ctl.p_world_port - self._p_world_start
+        return self._sign * float(moved @ self.axis_world)
+
+    def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:
+        p = self.params
+        if ctl.force_norm > p.force_threshold or ctl.torque_norm > p.torque_threshold:
+            return ExitCondition.WRENCH_BREACH
+        if self.progress(ctl) >= p.travel - TRAVEL_TOLERANCE_M:
+            return ExitCondition.GOAL_REACHED
+        elapsed = t - self._t0
+        assert p.watchdog is not None
+        if elapsed >= p.watchdog:
+            return ExitCondition.TIMEOUT
+        advance = self._sign * p.travel * min(1.0, elapsed / p.duration)
+        amplitude = p.amplitude * min(1.0, elapsed * p.frequency)
+        phase = 2.0 * math.pi * p.frequency * elapsed
+        mujoco.mju_scl3(self._wiggle, self._e1, amplitude * math.cos(phase))
+        mujoco.mju_addToScl3(self._wiggle, self._e2, amplitude * math.sin(phase))
+        mujoco.mju_addScl3(ctl.p_world_attractor, self._p_world_start, self.axis_world, advance)
+        if p.mode == "translational":
+            mujoco.mju_addTo3(ctl.p_world_attractor, self._wiggle)
+            ctl.q_world_attractor[:] = self._q_world_start
+        else:
+            rotate_world(ctl.q_world_attractor, self._q_world_start, self._wiggle, 1.0, self._q_tmp)
+        return None

@@ -1,0 +1,46 @@
+"""RWE, Reset Wrench Equilibrium (paper 2.2.2), axis-selective.
+
+Every tick the attractor is put back on the port along the selected axes, so the virtual
+wrench there is zero and only the sensed wrench drives the port: contact forces relax. On the
+other axes the stretch held at the start is kept (the attractor moves with the port), so e.g.
+an insertion force along z survives an RWE on x, y (the paper's variant, 2.3.5).
+
+After `duration` it ends `completed` if the wrench on the selected axes is below the residuals,
+else `timeout` (the environment still pushes: the operator should know).
+"""
+
+import math
+
+import numpy as np
+
+from robot_sim.behaviors.base import Behavior, ExitCondition
+from robot_sim.controller import AdmittanceController
+from robot_sim.params import RweParams
+
+
+class Rwe(Behavior):
+    kind = "rwe"
+
+    def __init__(self, params: RweParams) -> None:
+        self.params = params
+        self._mask = np.array(params.axis_mask(), dtype=bool)  # (6,) True: relieve this axis
+        self._kept_stretch = np.zeros(6)
+        self._t0 = 0.0
+
+    def start(self, ctl: AdmittanceController, t: float) -> None:
+        self._t0 = t
+        ctl.measure_stretch()
+        self._kept_stretch[:] = np.where(self._mask, 0.0, ctl.stretch_world())
+        ctl.place_attractor_from_port(self._kept_stretch)
+
+    def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:
+        ctl.place_attractor_from_port(self._kept_stretch)
+        if t - self._t0 < self.params.duration:
+            return None
+        return ExitCondition.COMPLETED if self.relieved(ctl.w_world_env_on_port) else ExitCondition.TIMEOUT
+
+    def relieved(self, wrench: np.ndarray) -> bool:
+        selected = np.where(self._mask, wrench, 0.0)
+        force = math.sqrt(float(selected[0:3] @ selected[0:3]))
+        torque = math.sqrt(float(selected[3:6] @ selected[3:6]))
+        return force <= self.params.force_residual and torque <= self.params.torque_residual

@@ -1,0 +1,218 @@
+"""The one definition of each behavior's parameters, reused by the API and the config loader.
+
+Units are SI (m, rad, N, N m, s, Hz); vectors are in base-frame axes unless a field says tool
+frame. Every range check names the field, the allowed range and the value it got.
+"""
+
+import math
+from typing import Annotated, Any, Literal, Self
+
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidatorFunctionWrapHandler,
+    WrapValidator,
+    model_validator,
+)
+
+from robot_sim import limits
+from robot_sim.errors import UnknownNameError
+from robot_sim.gains import Gains
+
+AXIS_NAMES = ("x", "y", "z", "rx", "ry", "rz")
+
+
+def _range(lo: float, hi: float, unit: str, *, lo_open: bool = False, hi_open: bool = False) -> WrapValidator:
+    """lo <= v <= hi (open ends as told); NaN and infinities are refused with the same message."""
+    text = f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'} {unit}".rstrip()
+
+    def check(value: Any, handler: ValidatorFunctionWrapHandler) -> float:
+        if isinstance(value, float) and not math.isfinite(value):
+            raise ValueError(f"must be a finite number in {text}, got {value}")
+        number = handler(value)
+        too_low = number <= lo if lo_open else number < lo
+        too_high = number >= hi if hi_open else number > hi
+        if too_low or too_high:
+            raise ValueError(f"must be in {text}, got {number:g}")
+        return float(number)
+
+    return WrapValidator(check)
+
+
+def _vector(limit: float, unit: str, *, nonzero: bool = False) -> WrapValidator:
+    """Finite components and magnitude <= limit (and > 0 when `nonzero`)."""
+
+    def check(value: Any, handler: ValidatorFunctionWrapHandler) -> list[float]:
+        if isinstance(value, list | tuple):
+            for i, v in enumerate(value):
+                if isinstance(v, float) and not math.isfinite(v):
+                    raise ValueError(f"component {i} must be a finite number, got {v}")
+        vec: list[float] = handler(value)
+        norm = math.sqrt(sum(v * v for v in vec))
+        if norm > limit:
+            raise ValueError(f"magnitude must be <= {limit:g} {unit}, got {norm:.4g}")
+        if nonzero and norm < 1e-9:
+            raise ValueError("must be a non-zero direction")
+        return vec
+
+    return WrapValidator(check)
+
+
+Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
+Vec6 = Annotated[list[float], Field(min_length=6, max_length=6), _vector(math.inf, "")]
+Duration = Annotated[float, _range(0.0, limits.MAX_DURATION_S, "s", lo_open=True)]
+Threshold = Annotated[float, _range(0.0, math.inf, "", lo_open=True, hi_open=True)]
+
+
+class StrictModel(BaseModel):
+    # NaN and infinities are refused everywhere; unknown fields are errors, not silently dropped.
+    model_config = ConfigDict(allow_inf_nan=False, extra="forbid")
+
+
+class GainsSpec(StrictModel):
+    """Diagonal stiffness and damping, base axes x y z rx ry rz, within the stable range."""
+
+    stiffness: Vec6 = Field(description="[N/m x3, N m/rad x3], >= 0; see limits.py for the range")
+    damping: Vec6 = Field(description="[N s/m x3, N m s/rad x3], > 0; see limits.py for the range")
+
+    @model_validator(mode="after")
+    def _stable(self) -> Self:
+        limits.check_gains(self.stiffness, self.damping)
+        return self
+
+    def to_gains(self) -> Gains:
+        return Gains.of(self.stiffness, self.damping)
+
+
+class PtwlParams(StrictModel):
+    """Pose Target Wrench Limiting: move the attractor to port (+) displacement over `duration`."""
+
+    type: Literal["ptwl"] = "ptwl"
+    translation: Annotated[Vec3, _vector(limits.MAX_TRANSLATION_M, "m")] = Field(
+        default_factory=lambda: [0.0, 0.0, 0.0], description="[m], in `frame`; |t| <= 1 m"
+    )
+    rotation: Annotated[Vec3, _vector(limits.MAX_ROTATION_RAD, "rad")] = Field(
+        default_factory=lambda: [0.0, 0.0, 0.0], description="rotation vector [rad] in `frame`; |r| <= pi"
+    )
+    frame: Literal["tool", "base"] = Field("tool", description="axes of translation and rotation")
+    duration: Duration = Field(2.0, description="[s] attractor travel time, (0, 600]")
+    force_threshold: Threshold = Field(20.0, description="[N] |f| above this ends wrench_breach")
+    torque_threshold: Threshold = Field(2.0, description="[N m] |tau| above this ends wrench_breach")
+    position_tolerance: Threshold = Field(0.002, description="[m] goal_reached when within this")
+    orientation_tolerance: Threshold = Field(0.02, description="[rad] and within this")
+    watchdog: Duration | None = Field(None, description="[s] timeout; >= duration; default duration + 5")
+    preset: str | None = Field(None, description="stiffness/damping preset name")
+    stiffness: Vec6 | None = Field(None, description="explicit [N/m x3, N m/rad x3], with damping")
+    damping: Vec6 | None = Field(None, description="explicit [N s/m x3, N m s/rad x3], with stiffness")
+
+    @model_validator(mode="after")
+    def _consistent(self) -> Self:
+        if self.watchdog is None:
+            self.watchdog = self.duration + 5.0
+        elif self.watchdog < self.duration:
+            raise ValueError(f"watchdog ({self.watchdog:g} s) must be >= duration ({self.duration:g} s)")
+        _check_gains_choice(self.preset, self.stiffness, self.damping)
+        return self
+
+    def gains(self) -> Gains | None:
+        return _resolve_gains(self.preset, self.stiffness, self.damping)
+
+
+class RweParams(StrictModel):
+    """Reset Wrench Equilibrium on the selected axes; the others keep their stretch."""
+
+    type: Literal["rwe"] = "rwe"
+    axes: list[Literal["x", "y", "z", "rx", "ry", "rz"]] = Field(
+        default_factory=lambda: list(AXIS_NAMES), min_length=1, description="axes to relieve"
+    )
+    duration: Duration = Field(1.0, description="[s] how long the attractor tracks the port, (0, 600]")
+    force_residual: Threshold = Field(1.0, description="[N] relieved when |f| on the axes is below")
+    torque_residual: Threshold = Field(0.1, description="[N m] and |tau| on the axes is below")
+
+    @model_validator(mode="after")
+    def _unique(self) -> Self:
+        if len(set(self.axes)) != len(self.axes):
+            raise ValueError(f"axes must not repeat, got {self.axes}")
+        return self
+
+    def axis_mask(self) -> list[bool]:
+        return [name in self.axes for name in AXIS_NAMES]
+
+
+class DitherParams(StrictModel):
+    """Dither: wiggle the attractor while advancing (push) or retreating (pull) along an axis."""
+
+    type: Literal["dither"] = "dither"
+    preset: str | None = Field(None, description="one of the dither presets; other fields override it")
+    mode: Literal["torsional", "translational"] = "torsional"
+    direction: Literal["push", "pull"] = "push"
+    axis: Annotated[Vec3, _vector(math.inf, "", nonzero=True)] = Field(
+        default_factory=lambda: [0.0, 0.0, 1.0], description="tool frame direction (normalized)"
+    )
+    amplitude: Annotated[float, _range(0.0, limits.MAX_DITHER_AMPLITUDE, "rad or m", lo_open=True)] = Field(
+        0.03, description="[rad] tilt (torsional) or [m] circle radius (translational)"
+    )
+    frequency: Annotated[float, _range(0.0, limits.MAX_DITHER_FREQUENCY_HZ, "Hz", lo_open=True)] = Field(
+        1.0, description="[Hz] wiggle frequency"
+    )
+    travel: Annotated[float, _range(0.0, limits.MAX_TRANSLATION_M, "m")] = Field(
+        0.01, description="[m] distance along the axis"
+    )
+    duration: Duration = Field(4.0, description="[s] time to cover `travel`, (0, 600]")
+    force_threshold: Threshold = Field(30.0, description="[N]")
+    torque_threshold: Threshold = Field(3.0, description="[N m]")
+    watchdog: Duration | None = Field(None, description="[s] >= duration; default duration + 5")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _apply_preset(cls, data: object) -> object:
+        """A named preset supplies every field the request does not give."""
+        if isinstance(data, dict) and data.get("preset") is not None:
+            from robot_sim.presets import default_presets
+
+            try:
+                base = default_presets().dither_preset(str(data["preset"]))
+            except UnknownNameError as err:
+                raise ValueError(str(err)) from None
+            return {**base, **data}
+        return data
+
+    @model_validator(mode="after")
+    def _consistent(self) -> Self:
+        if self.mode == "translational" and self.amplitude > limits.MAX_DITHER_RADIUS_M:
+            raise ValueError(
+                f"amplitude must be in (0, {limits.MAX_DITHER_RADIUS_M:g}] m for translational mode, "
+                f"got {self.amplitude:g}"
+            )
+        if self.watchdog is None:
+            self.watchdog = self.duration + 5.0
+        elif self.watchdog < self.duration:
+            raise ValueError(f"watchdog ({self.watchdog:g} s) must be >= duration ({self.duration:g} s)")
+        return self
+
+
+def _check_gains_choice(preset: str | None, stiffness: list[float] | None, damping: list[float] | None) -> None:
+    if preset is not None and (stiffness is not None or damping is not None):
+        raise ValueError("give either preset or stiffness/damping, not both")
+    if (stiffness is None) != (damping is None):
+        raise ValueError("stiffness and damping go together: give both or neither")
+    if stiffness is not None and damping is not None:
+        limits.check_gains(stiffness, damping)
+    if preset is not None:
+        from robot_sim.presets import default_presets
+
+        try:
+            default_presets().stiffness_preset(preset)
+        except UnknownNameError as err:
+            raise ValueError(str(err)) from None
+
+
+def _resolve_gains(preset: str | None, stiffness: list[float] | None, damping: list[float] | None) -> Gains | None:
+    if preset is not None:
+        from robot_sim.presets import default_presets
+
+        return default_presets().stiffness_preset(preset).to_gains()
+    if stiffness is not None and damping is not None:
+        return Gains.of(stiffness, damping)
+    return None
