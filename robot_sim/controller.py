@@ -36,14 +36,19 @@ from robot_sim.payload import Payload
 # Damped least squares: lambda^2 grows from 0 to LAMBDA_MAX^2 as the manipulability
 # sqrt(det(J J^T)) falls below MANIPULABILITY_THRESHOLD (Chiaverini's singularity-robust
 # inverse). Far from singularities the inverse is exact, so the free-space response stays the
-# designed first-order lag. The home pose has manipulability ~0.028.
-MANIPULABILITY_THRESHOLD = 0.004
-LAMBDA_MAX = 0.08
+# designed first-order lag. The home pose has manipulability ~0.028, the fully stretched arm 0.
+MANIPULABILITY_THRESHOLD = 0.012
+LAMBDA_MAX = 0.1
 LAMBDA_FLOOR_SQ = 1e-10
 # Within this distance of a joint limit [rad], motion toward it is tapered linearly to zero.
 JOINT_LIMIT_MARGIN_RAD = 0.15
+# Joint acceleration limit [rad/s^2], of the order of a small arm's drives.
+JOINT_ACCEL_LIMIT = np.array([40.0, 40.0, 40.0, 80.0, 80.0, 100.0])
 # Rebuild Q (Jacobian, DLS inverse, sensor rotation) every N ticks; see the module docstring.
+# Every tick instead while near a singularity or while the joints move fast.
 KINEMATICS_TICKS = 8
+FAST_REFRESH_MANIPULABILITY_RATIO = 2.0  # manipulability / MANIPULABILITY_THRESHOLD
+FAST_REFRESH_SPEED = 1.0  # |qdot| [rad/s]
 
 _IDENTITY_QUAT = np.array([1.0, 0.0, 0.0, 0.0])
 
@@ -58,6 +63,7 @@ class AdmittanceController:
         layout: ArmLayout,
         payload: Payload,
         gains: Gains,
+        control_dt: float,
     ) -> None:
         self.model = model
         self.data = data
@@ -109,11 +115,13 @@ class AdmittanceController:
         self._jacp = self._jac[0:3]
         self._jacr = self._jac[3:6]
         self._inv_speed_limit = 1.0 / layout.joint_speed_limit
+        self._max_dqdot = JOINT_ACCEL_LIMIT * control_dt  # [rad/s] per tick
         # Fast path: |qdot|_2 below the smallest limit cannot break any joint's limit.
         self._min_speed_limit = float(layout.joint_speed_limit.min())
         self._lower_soft = layout.joint_range[:, 0] + 2 * JOINT_LIMIT_MARGIN_RAD
         self._upper_soft = layout.joint_range[:, 1] - 2 * JOINT_LIMIT_MARGIN_RAD
         self._near_joint_limit = False
+        self._refresh_every_tick = False
         self._ticks = 0
         self._q_tmp = np.zeros(4)
         self.manipulability = 0.0
@@ -167,6 +175,10 @@ class AdmittanceController:
         mujoco.mju_cholFactor(chol, LAMBDA_FLOOR_SQ)
         self.manipulability = math.prod(self._chol_diag.tolist())
         ratio = self.manipulability / MANIPULABILITY_THRESHOLD
+        # Near a singularity, or moving fast, J changes quickly: rebuild Q every tick then.
+        self._refresh_every_tick = (
+            ratio < FAST_REFRESH_MANIPULABILITY_RATIO or mujoco.mju_norm(self._ctrl_pos) > FAST_REFRESH_SPEED
+        )
         if ratio < 1.0:
             np.dot(J, J.T, out=chol)
             self._chol_diag += LAMBDA_MAX**2 * (1.0 - ratio * ratio)
@@ -217,23 +229,27 @@ class AdmittanceController:
     def command(self) -> None:
         """Stretch to the (possibly just moved) attractor, then qdot = Q v to the servos."""
         self._ticks += 1
-        if self._ticks % KINEMATICS_TICKS == 0:
+        if self._refresh_every_tick or self._ticks % KINEMATICS_TICKS == 0:
             self.refresh_kinematics()
         self.measure_stretch()
         if not self.enabled:
             return
         qdot = self._ctrl_pos
         self._qdot_map.dot(self._v, out=qdot)
-        if mujoco.mju_norm(qdot) > self._min_speed_limit or self._near_joint_limit:
-            self._limit_joint_speeds(qdot)
+        # Slow commands far from limits and singularities need no limiting (the common case).
+        if mujoco.mju_norm(qdot) > FAST_REFRESH_SPEED or self._refresh_every_tick or self._near_joint_limit:
+            self._limit_joint_motion(qdot, previous=self._ctrl_vel)
         self._ctrl_vel[:] = qdot
 
-    def _limit_joint_speeds(self, qdot: np.ndarray) -> None:
-        # One scale for all joints keeps the Cartesian direction.
+    def _limit_joint_motion(self, qdot: np.ndarray, previous: np.ndarray) -> None:
+        # Speed: one scale for all joints keeps the Cartesian direction.
         peak = float(np.max(np.abs(qdot) * self._inv_speed_limit))
         self.speed_scale = 1.0 if peak <= 1.0 else 1.0 / peak
         if peak > 1.0:
             qdot *= self.speed_scale
+        # Acceleration: as a drive would, so the DLS taking over near a singularity (or a
+        # sudden attractor jump) decelerates the arm over tens of ms instead of a few.
+        np.clip(qdot, previous - self._max_dqdot, previous + self._max_dqdot, out=qdot)
         if self._near_joint_limit:
             self._taper_at_joint_limits(qdot)
 

@@ -60,7 +60,7 @@ def sleeve_insertion_depth(sim: "Simulation") -> float:
     """Peg top past the sleeve mouth, along the sleeve axis [m] (negative: not yet over it)."""
     peg_top = sim.data.site_xpos[sim.model.site("peg_top").id]
     R_world_port = sim.data.site_xmat[sim.layout.port_site].reshape(3, 3)
-    return float(R_world_port[:, 2] @ (peg_top - sim.controller.p_world_port))
+    return float(R_world_port[:, 2] @ (sim.controller.p_world_port - peg_top))
 
 
 def _sleeve_on_peg(sim: "Simulation") -> TaskProgress:

@@ -50,6 +50,15 @@ class RobotState:
     behavior: str | None
 
 
+def _warnings(data: mujoco.MjData) -> str:
+    names = [
+        name.removeprefix("mjWARN_")
+        for name, value in mujoco.mjtWarning.__members__.items()
+        if name != "mjNWARNING" and data.warning[int(value)].number > 0
+    ]
+    return ", ".join(names) or "no warning recorded"
+
+
 def _pose(position: np.ndarray, quaternion: np.ndarray) -> Pose:
     p = (float(position[0]), float(position[1]), float(position[2]))
     q = (float(quaternion[0]), float(quaternion[1]), float(quaternion[2]), float(quaternion[3]))
@@ -66,6 +75,7 @@ class Simulation:
         *,
         gains: Gains | None = None,
         control_hz: float = 1000.0,
+        qpos: "tuple[float, ...] | None" = None,
     ) -> None:
         substeps = 1.0 / (control_hz * PHYSICS_TIMESTEP_S)
         if control_hz < 500.0 or abs(substeps - round(substeps)) > 1e-9:
@@ -76,11 +86,18 @@ class Simulation:
         self.control_dt = self.n_substeps * PHYSICS_TIMESTEP_S
         self.fault_count = 0
         self.last_fault: str | None = None
-        self.reset(scene, seed, gains=gains if gains is not None else default_gains())
+        self.reset(scene, seed, gains=gains if gains is not None else default_gains(), qpos=qpos)
 
     # ------------------------------------------------------------------------- scenes
-    def reset(self, scene: str, seed: int | None = None, *, gains: Gains | None = None) -> None:
-        """Load `scene` fresh, arm at home, compliance on with the attractor on the port."""
+    def reset(
+        self,
+        scene: str,
+        seed: int | None = None,
+        *,
+        gains: Gains | None = None,
+        qpos: "tuple[float, ...] | None" = None,
+    ) -> None:
+        """Load `scene` fresh, arm at home (or `qpos` [rad]), compliance on, attractor on the port."""
         spec: Scene = get_scene(scene)
         model = build_model(spec.scene_file, spec.tool_file)
         if seed is not None and spec.fixture_body is not None:
@@ -88,8 +105,9 @@ class Simulation:
             model.body(spec.fixture_body).pos[0:2] += rng.uniform(-spec.jitter_m, spec.jitter_m, 2)
         data = mujoco.MjData(model)
         layout = ArmLayout.from_model(model)
-        data.qpos[layout.qpos_adr] = spec.home_qpos
-        data.act[layout.act_adr] = spec.home_qpos
+        start = spec.home_qpos if qpos is None else qpos
+        data.qpos[layout.qpos_adr] = start
+        data.act[layout.act_adr] = start
         mujoco.mj_forward(model, data)
         self.scene = spec
         self.seed = seed
@@ -98,7 +116,7 @@ class Simulation:
         self.layout = layout
         self.payload = Payload.from_model(model, layout)
         keep = gains if gains is not None else self.controller.gains
-        self.controller = AdmittanceController(model, data, layout, self.payload, keep)
+        self.controller = AdmittanceController(model, data, layout, self.payload, keep, self.control_dt)
         self.controller.enable()
         self.behavior: Behavior | None = None
         self._behavior_started_at = 0.0
@@ -115,8 +133,10 @@ class Simulation:
         """Advance one control period; returns the report if a behavior ended in it."""
         # Runs at 1 kHz: locals and few attribute look-ups on purpose.
         ctl = self.controller
+        data = self.data
         behavior = self.behavior
         report = None
+        now = data.time
         try:
             ctl.measure()
             if behavior is not None:
@@ -124,11 +144,14 @@ class Simulation:
                     self._peak_force = ctl.force_norm
                 if ctl.torque_norm > self._peak_torque:
                     self._peak_torque = ctl.torque_norm
-                exit_condition = behavior.update(ctl, self.data.time)
+                exit_condition = behavior.update(ctl, now)
                 if exit_condition is not None:
                     report = self._finish(exit_condition)
             ctl.command()
-            mujoco.mj_step(self.model, self.data, self.n_substeps)
+            mujoco.mj_step(self.model, data, self.n_substeps)
+            if data.time <= now:
+                # MuJoCo resets the data (time included) when qpos/qvel/qacc go bad.
+                raise SimulationFault(f"MuJoCo found the simulation unstable: {_warnings(data)}")
         except SimulationFault as fault:
             return self._recover_from_fault(str(fault))
         return report

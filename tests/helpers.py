@@ -1,0 +1,37 @@
+"""Shared measurement helpers for the robot_sim tests."""
+
+import numpy as np
+
+from robot_sim.controller import rotate_world
+from robot_sim.gains import Gains
+from robot_sim.sim import Simulation
+
+# x y z [N/m, N s/m]; rx ry rz [N m/rad, N m s/rad]. Time constants 0.25 s and 0.4 s.
+TEST_GAINS = Gains.of([4000, 4000, 4000, 125, 125, 125], [1000, 1000, 1000, 50, 50, 50])
+
+
+def fit_time_constant(t: np.ndarray, error: np.ndarray) -> float:
+    """Time constant of a first-order decay, from a log-linear fit between 80% and 10% of e0."""
+    e0 = error[0]
+    mask = (error < 0.8 * e0) & (error > 0.1 * e0)
+    assert mask.sum() > 20, "too few samples in the fit window"
+    slope = np.polyfit(t[mask], np.log(error[mask]), 1)[0]
+    return -1.0 / slope
+
+
+def step_response(sim: Simulation, axis: int, step: float, seconds: float) -> tuple[np.ndarray, np.ndarray]:
+    """Step the attractor by `step` on base axis `axis` (0-2 m, 3-5 rad); the stretch over time."""
+    ctl = sim.controller
+    sim.run(0.2)  # settle
+    if axis < 3:
+        ctl.p_world_attractor[axis] += step
+    else:
+        rotvec = np.zeros(3)
+        rotvec[axis - 3] = step
+        rotate_world(ctl.q_world_attractor, ctl.q_world_attractor.copy(), rotvec, 1.0, np.zeros(4))
+    times, errors = [], []
+    for _ in range(int(seconds / sim.control_dt)):
+        sim.step()
+        times.append(sim.time)
+        errors.append(abs(ctl.stretch_world()[axis]))
+    return np.array(times) - times[0], np.array(errors)

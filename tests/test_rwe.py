@@ -1,0 +1,52 @@
+"""RWE relieves contact wrenches; the axis-selective variant keeps the others' stretch."""
+
+import pytest
+
+from robot_sim.behaviors.base import ExitCondition
+from robot_sim.behaviors.ptwl import Ptwl
+from robot_sim.behaviors.rwe import Rwe
+from robot_sim.params import PtwlParams, RweParams
+from robot_sim.sim import Simulation
+from tests.test_ptwl import GAP_TO_PLATE
+
+
+def pressed_on_plate(lateral: float = 0.0) -> Simulation:
+    """The probe pressed into the plate after a breach: down (base -z) and optionally sideways."""
+    sim = Simulation("surface")
+    params = PtwlParams(
+        translation=[lateral, 0.0, -(GAP_TO_PLATE + 0.03)], frame="base", duration=2.0, force_threshold=30.0
+    )
+    report = sim.run_behavior(Ptwl(params))
+    assert report.exit is ExitCondition.WRENCH_BREACH
+    sim.run(0.5)
+    return sim
+
+
+def test_rwe_relieves_a_breach_to_under_ten_percent() -> None:
+    sim = pressed_on_plate()
+    before = sim.controller.force_norm
+    assert before > 20.0
+    report = sim.run_behavior(Rwe(RweParams(duration=1.0)))
+    assert report.exit is ExitCondition.COMPLETED
+    assert sim.controller.force_norm < 0.1 * before
+    # Relieved "without substantially changing the robot pose" (paper 2.2.2).
+    assert abs(report.final_port.position[2] - 0.228) < 0.002
+
+
+def test_rwe_on_x_y_keeps_the_z_force() -> None:
+    # Pressed down while dragging sideways: friction loads x as well as z.
+    sim = pressed_on_plate(lateral=0.01)
+    w = sim.controller.w_world_env_on_port
+    fz_before, fx_before = float(w[2]), float(w[0])
+    assert abs(fx_before) > 1.0
+    report = sim.run_behavior(Rwe(RweParams(axes=["x", "y"], duration=1.5)))
+    assert report.exit is ExitCondition.COMPLETED
+    assert report.final_wrench[2] == pytest.approx(fz_before, rel=0.10)
+    assert abs(report.final_wrench[0]) < 0.1 * abs(fx_before)
+
+
+def test_rwe_times_out_when_the_environment_keeps_pushing() -> None:
+    sim = pressed_on_plate()
+    # Residual below what a still-settling press can reach in 1 ms: the exit says "not relieved".
+    report = sim.run_behavior(Rwe(RweParams(duration=0.001, force_residual=0.01)))
+    assert report.exit is ExitCondition.TIMEOUT
