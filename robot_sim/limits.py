@@ -34,7 +34,9 @@ def stable_range_text() -> str:
     )
 
 
-def check_gains(stiffness: "list[float] | tuple[float, ...]", damping: "list[float] | tuple[float, ...]") -> None:
+def check_gains(
+    stiffness: "list[float] | tuple[float, ...]", damping: "list[float] | tuple[float, ...]"
+) -> None:
     """Raise ValueError naming the first component outside the stable range."""
     for i, (k, b) in enumerate(zip(stiffness, damping, strict=True)):
         axis = _AXES[i]
@@ -53,5 +55,6 @@ def check_gains(stiffness: "list[float] | tuple[float, ...]", damping: "list[flo
             )
         if k > 0.0 and b / k < MIN_TIME_CONSTANT_S:
             raise ValueError(
-                f"damping[{i}]/stiffness[{i}] ({axis}) must be >= {MIN_TIME_CONSTANT_S:g} s, got {b / k:.4g} s"
+                f"damping[{i}]/stiffness[{i}] ({axis}) must be >= {MIN_TIME_CONSTANT_S:g} s, "
+                f"got {b / k:.4g} s"
             )

@@ -20,7 +20,8 @@ from robot_sim import limits
 from robot_sim.errors import UnknownNameError
 from robot_sim.gains import Gains
 
-AXIS_NAMES = ("x", "y", "z", "rx", "ry", "rz")
+AxisName = Literal["x", "y", "z", "rx", "ry", "rz"]
+AXIS_NAMES: tuple[AxisName, ...] = ("x", "y", "z", "rx", "ry", "rz")
 
 
 def _range(lo: float, hi: float, unit: str, *, lo_open: bool = False, hi_open: bool = False) -> WrapValidator:
@@ -123,7 +124,7 @@ class RweParams(StrictModel):
     """Reset Wrench Equilibrium on the selected axes; the others keep their stretch."""
 
     type: Literal["rwe"] = "rwe"
-    axes: list[Literal["x", "y", "z", "rx", "ry", "rz"]] = Field(
+    axes: list[AxisName] = Field(
         default_factory=lambda: list(AXIS_NAMES), min_length=1, description="axes to relieve"
     )
     duration: Duration = Field(1.0, description="[s] how long the attractor tracks the port, (0, 600]")
@@ -192,7 +193,9 @@ class DitherParams(StrictModel):
         return self
 
 
-def _check_gains_choice(preset: str | None, stiffness: list[float] | None, damping: list[float] | None) -> None:
+def _check_gains_choice(
+    preset: str | None, stiffness: list[float] | None, damping: list[float] | None
+) -> None:
     if preset is not None and (stiffness is not None or damping is not None):
         raise ValueError("give either preset or stiffness/damping, not both")
     if (stiffness is None) != (damping is None):
@@ -208,7 +211,9 @@ def _check_gains_choice(preset: str | None, stiffness: list[float] | None, dampi
             raise ValueError(str(err)) from None
 
 
-def _resolve_gains(preset: str | None, stiffness: list[float] | None, damping: list[float] | None) -> Gains | None:
+def _resolve_gains(
+    preset: str | None, stiffness: list[float] | None, damping: list[float] | None
+) -> Gains | None:
     if preset is not None:
         from robot_sim.presets import default_presets
 

@@ -43,9 +43,9 @@ class Payload:
         if model.body_subtreemass[body] != model.body_mass[body]:
             raise ValueError("the tool must be one welded body (no child bodies)")
         # Sensor and port sites are on the tool body; express both in the sensor frame.
-        R_body_ft = np.zeros(9)
-        mujoco.mju_quat2Mat(R_body_ft, model.site_quat[layout.ft_site])
-        R_body_ft = R_body_ft.reshape(3, 3)
+        R_flat = np.zeros(9)
+        mujoco.mju_quat2Mat(R_flat, model.site_quat[layout.ft_site])
+        R_body_ft = R_flat.reshape(3, 3)
         p_body_ft = model.site_pos[layout.ft_site]
         com_ft = R_body_ft.T @ (model.body_ipos[body] - p_body_ft)
         port_ft = R_body_ft.T @ (model.site_pos[layout.port_site] - p_body_ft)

@@ -54,7 +54,8 @@ class Presets:
 def _problem(err: ValidationError) -> str:
     first = err.errors()[0]
     where = ".".join(str(p) for p in first["loc"])
-    return f"{where}: {first['msg']}" if where else first["msg"]
+    message = str(first["msg"]).removeprefix("Value error, ")
+    return f"{where}: {message}" if where else message
 
 
 def load_presets(path: Path) -> Presets:
@@ -87,7 +88,8 @@ def load_presets(path: Path) -> Presets:
     default = raw.get("default", {}).get("stiffness_preset", "medium")
     if default not in stiffness:
         raise ConfigError(
-            f"{path}: [default].stiffness_preset: unknown preset {default!r}; valid: {', '.join(sorted(stiffness))}"
+            f"{path}: [default].stiffness_preset: unknown preset {default!r}; "
+            f"valid: {', '.join(sorted(stiffness))}"
         )
     return Presets(stiffness, descriptions, dither, default)
 

@@ -29,7 +29,6 @@ from robot_sim.presets import default_presets
 from robot_sim.scenes import Scene, TaskProgress, get_scene
 
 
-
 def default_gains() -> Gains:
     """The config's default stiffness/damping preset."""
     presets = default_presets()
@@ -80,12 +79,14 @@ class Simulation:
         substeps = 1.0 / (control_hz * PHYSICS_TIMESTEP_S)
         if control_hz < 500.0 or abs(substeps - round(substeps)) > 1e-9:
             raise RobotSimError(
-                f"control_hz must be >= 500 and divide the {1 / PHYSICS_TIMESTEP_S:.0f} Hz physics rate, got {control_hz}"
+                f"control_hz must be >= 500 and divide the {1 / PHYSICS_TIMESTEP_S:.0f} Hz physics rate, "
+                f"got {control_hz}"
             )
-        self.n_substeps = int(round(substeps))
+        self.n_substeps = round(substeps)
         self.control_dt = self.n_substeps * PHYSICS_TIMESTEP_S
         self.fault_count = 0
         self.last_fault: str | None = None
+        self.controller: AdmittanceController
         self.reset(scene, seed, gains=gains if gains is not None else default_gains(), qpos=qpos)
 
     # ------------------------------------------------------------------------- scenes
@@ -115,7 +116,7 @@ class Simulation:
         self.data = data
         self.layout = layout
         self.payload = Payload.from_model(model, layout)
-        keep = gains if gains is not None else self.controller.gains
+        keep: Gains = gains if gains is not None else self.controller.gains
         self.controller = AdmittanceController(model, data, layout, self.payload, keep, self.control_dt)
         self.controller.enable()
         self.behavior: Behavior | None = None
@@ -159,7 +160,7 @@ class Simulation:
     def run(self, seconds: float) -> list[BehaviorReport]:
         """Step for `seconds` of sim time; the reports of behaviors that ended meanwhile."""
         reports = []
-        for _ in range(int(round(seconds / self.control_dt))):
+        for _ in range(round(seconds / self.control_dt)):
             report = self.step()
             if report is not None:
                 reports.append(report)
@@ -186,7 +187,7 @@ class Simulation:
     def run_behavior(self, behavior: Behavior, max_seconds: float = 700.0) -> BehaviorReport:
         """Start `behavior` and step until it ends (its watchdog ends it in bounded time)."""
         self.start(behavior)
-        for _ in range(int(round(max_seconds / self.control_dt))):
+        for _ in range(round(max_seconds / self.control_dt)):
             report = self.step()
             if report is not None:
                 return report

@@ -92,7 +92,9 @@ def test_stretching_past_reach_slows_down_at_the_singularity() -> None:
         peak_speed = max(peak_speed, float(np.max(np.abs(qvel) / vmax)))
         accel_cmd = np.abs(sim.controller.qdot_cmd - previous_cmd) / sim.control_dt / JOINT_ACCEL_LIMIT
         peak_accel_cmd = max(peak_accel_cmd, float(accel_cmd.max()))
-        peak_accel = max(peak_accel, float(np.max(np.abs(qvel - previous) / sim.control_dt / JOINT_ACCEL_LIMIT)))
+        peak_accel = max(
+            peak_accel, float(np.max(np.abs(qvel - previous) / sim.control_dt / JOINT_ACCEL_LIMIT))
+        )
         previous_cmd = sim.controller.qdot_cmd.copy()
         previous = qvel.copy()
     assert report.exit is ExitCondition.TIMEOUT  # the goal is out of reach; no inertial breach
@@ -126,7 +128,7 @@ def test_same_seed_same_trajectory_and_seeds_move_the_fixture() -> None:
 
     q_a, plate_a = run(7)
     q_b, plate_b = run(7)
-    q_c, plate_c = run(8)
+    _, plate_c = run(8)
     np.testing.assert_array_equal(q_a, q_b)
     np.testing.assert_array_equal(plate_a, plate_b)
     assert not np.array_equal(plate_a, plate_c)

@@ -31,7 +31,9 @@ def circle_fit(t: np.ndarray, xy: np.ndarray) -> tuple[float, float]:
     return radius, float(np.polyfit(t, phase, 1)[0] / (2 * math.pi))
 
 
-@pytest.mark.parametrize("preset", ["torsional_push", "torsional_pull", "translational_push", "translational_pull"])
+@pytest.mark.parametrize(
+    "preset", ["torsional_push", "torsional_pull", "translational_push", "translational_pull"]
+)
 def test_dither_preset_motion_and_travel(preset: str) -> None:
     sim = Simulation("free_space")
     ctl = sim.controller

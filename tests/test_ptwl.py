@@ -33,7 +33,9 @@ def test_base_frame_rotation_turns_about_the_port_origin() -> None:
     report = sim.run_behavior(Ptwl(PtwlParams(rotation=[0.0, 0.0, 0.3], frame="base", duration=1.0)))
     assert report.exit is ExitCondition.GOAL_REACHED
     assert np.linalg.norm(np.array(report.final_port.position) - p0) < 0.002
-    assert angle_between(np.array(report.final_port.quaternion), q0, np.zeros(3)) == pytest.approx(0.3, abs=0.02)
+    assert angle_between(np.array(report.final_port.quaternion), q0, np.zeros(3)) == pytest.approx(
+        0.3, abs=0.02
+    )
 
 
 def test_wrench_breach_on_the_plate_freezes_the_attractor_and_bounds_the_force() -> None:
@@ -71,7 +73,9 @@ def test_stiffness_preset_is_applied_for_the_move() -> None:
     sim = Simulation("free_space")
     sim.run_behavior(Ptwl(PtwlParams(translation=[0.01, 0, 0], preset="stiff")))
     np.testing.assert_array_equal(sim.controller.gains.stiffness, [4000, 4000, 4000, 200, 200, 200])
-    explicit = PtwlParams(translation=[0.01, 0, 0], stiffness=[900, 900, 900, 30, 30, 30], damping=[900] * 3 + [30] * 3)
+    explicit = PtwlParams(
+        translation=[0.01, 0, 0], stiffness=[900, 900, 900, 30, 30, 30], damping=[900] * 3 + [30] * 3
+    )
     sim.run_behavior(Ptwl(explicit))
     np.testing.assert_array_equal(sim.controller.gains.damping, [900, 900, 900, 30, 30, 30])
 

@@ -44,9 +44,9 @@ class Ptwl(Behavior):
         translation = np.asarray(p.translation, dtype=float)
         rotation = np.asarray(p.rotation, dtype=float)
         if p.frame == "tool":
-            R_world_port = np.zeros(9)
-            mujoco.mju_quat2Mat(R_world_port, self._q_world_start)
-            R_world_port = R_world_port.reshape(3, 3)
+            R_flat = np.zeros(9)
+            mujoco.mju_quat2Mat(R_flat, self._q_world_start)
+            R_world_port = R_flat.reshape(3, 3)
             self._dp_world[:] = R_world_port @ translation
             self._rotvec_world[:] = R_world_port @ rotation
         else:

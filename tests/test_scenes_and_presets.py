@@ -1,0 +1,111 @@
+"""Every registered scene, preset and behavior runs; bad config files name key and problem."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from robot_sim.behaviors.dither import Dither
+from robot_sim.behaviors.ptwl import Ptwl
+from robot_sim.behaviors.rwe import Rwe
+from robot_sim.errors import ConfigError, UnknownNameError
+from robot_sim.params import DitherParams, PtwlParams, RweParams
+from robot_sim.presets import config_dir, default_presets, load_presets
+from robot_sim.scenes import SCENES, get_scene
+from robot_sim.sim import Simulation
+
+
+@pytest.mark.parametrize("scene", list(SCENES))
+def test_scene_loads_and_runs_two_seconds_without_nan(scene: str) -> None:
+    sim = Simulation(scene, seed=3)
+    sim.run(2.0)
+    assert sim.time == pytest.approx(2.0)
+    assert np.all(np.isfinite(sim.data.qpos)) and np.all(np.isfinite(sim.data.sensordata))
+    assert sim.fault_count == 0
+    task = sim.task()
+    assert task.predicate and np.isfinite(task.progress) and not task.success
+
+
+def test_unknown_scene_lists_the_valid_ones() -> None:
+    with pytest.raises(
+        UnknownNameError, match="unknown scene 'moon'; valid: free_space, sleeve_on_peg, surface"
+    ):
+        get_scene("moon")
+
+
+def test_free_space_goal_is_reachable() -> None:
+    sim = Simulation("free_space")
+    goal = sim.data.site_xpos[sim.model.site("goal").id] - sim.controller.p_world_port
+    sim.run_behavior(
+        Ptwl(PtwlParams(translation=list(goal), frame="base", duration=2.0, position_tolerance=0.001))
+    )
+    assert sim.task().success
+
+
+@pytest.mark.parametrize("preset", list(default_presets().stiffness))
+def test_every_stiffness_preset_runs_a_ptwl(preset: str) -> None:
+    sim = Simulation("free_space")
+    report = sim.run_behavior(Ptwl(PtwlParams(translation=[0.0, 0.0, 0.01], preset=preset, watchdog=8.0)))
+    assert report.exit.value in ("goal_reached", "timeout")  # near-zero stiffness may never arrive
+    assert np.all(np.isfinite(sim.data.qpos))
+
+
+@pytest.mark.parametrize(
+    "behavior",
+    [
+        Ptwl(PtwlParams(translation=[0.0, 0.0, 0.005])),
+        Rwe(RweParams(duration=0.2)),
+        Dither(DitherParams(travel=0.004)),
+    ],
+    ids=["ptwl", "rwe", "dither"],
+)
+@pytest.mark.parametrize("scene", list(SCENES))
+def test_every_behavior_in_every_scene(scene: str, behavior: object) -> None:
+    sim = Simulation(scene)
+    report = sim.run_behavior(behavior)  # type: ignore[arg-type]
+    assert report.exit.value in ("goal_reached", "completed", "wrench_breach", "timeout")
+    assert report.ended_at > report.started_at
+
+
+def test_shipped_config_is_valid() -> None:
+    presets = load_presets(config_dir() / "presets.toml")
+    assert {"stiff", "medium", "soft", "planar", "hinge"} <= set(presets.stiffness)
+    planar = presets.stiffness["planar"].stiffness
+    assert planar[2] < 10 and planar[3] < 1 and planar[4] < 1 and planar[0] > 1000
+    hinge = presets.stiffness["hinge"].stiffness
+    assert max(hinge[0:3]) < 10 and min(hinge[3:6]) > 10
+
+
+GOOD_STIFF = "stiffness = [1, 1, 1, 1, 1, 1]\ndamping = [1000, 1000, 1000, 50, 50, 50]\n"
+GOOD_DITHER = '[dither.d]\nmode = "torsional"\n'
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("[stiffness.a]\n" + GOOD_STIFF, "[dither] is missing or empty"),
+        ("[stiffness.a\n", "not valid TOML"),
+        (
+            "[stiffness.a]\nstiffness = [1, 1, 1, 1, 1, 1]\ndamping = [1000, 0, 1000, 50, 50, 50]\n"
+            + GOOD_DITHER,
+            "[stiffness.a] damping[1] (y) must be > 0",
+        ),
+        ("[stiffness.a]\nstiffness = [1, 1]\ndamping = [1, 1]\n" + GOOD_DITHER, "[stiffness.a] stiffness:"),
+        ("[stiffness.a]\n" + GOOD_STIFF + '[dither.d]\nmode = "spin"\n', "[dither.d] mode:"),
+        (
+            "[stiffness.a]\n" + GOOD_STIFF + "[dither.d]\nfrequency = nan\n",
+            "[dither.d] frequency: must be a finite number in (0, 10] Hz",
+        ),
+        (
+            "[stiffness.a]\n" + GOOD_STIFF + GOOD_DITHER + '[default]\nstiffness_preset = "b"\n',
+            "unknown preset 'b'; valid: a",
+        ),
+    ],
+)
+def test_bad_config_names_the_key_and_the_problem(tmp_path: Path, text: str, message: str) -> None:
+    path = tmp_path / "presets.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError) as err:
+        load_presets(path)
+    assert str(path) in str(err.value)
+    assert message in str(err.value)
