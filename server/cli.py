@@ -1,0 +1,121 @@
+"""The `ptwl` command line.
+
+    ptwl up [--scene NAME] [--seed N] [--demo] [--seconds S]    headless robot, real time
+    ptwl scenes | ptwl presets                                  what exists
+
+Until the robot server, the link and the console land, `ptwl up` runs the simulation paced to
+real time and prints one status line a second; `--demo` drives the paper's sleeve-on-peg
+sequence (tilt, jammed PTWL, RWE, torsional dither, PTWL) so every behavior and its exit shows.
+"""
+
+import argparse
+import json
+import sys
+from collections.abc import Iterator
+
+from robot_sim.behaviors.base import Behavior, BehaviorReport
+from robot_sim.behaviors.dither import Dither
+from robot_sim.behaviors.ptwl import Ptwl
+from robot_sim.behaviors.rwe import Rwe
+from robot_sim.errors import RobotSimError
+from robot_sim.params import DitherParams, PtwlParams, RweParams
+from robot_sim.presets import default_presets
+from robot_sim.scenes import SCENES
+from robot_sim.sim import Simulation
+from server.pacing import RealTimePacer
+
+
+def demo_sequence() -> Iterator[Behavior]:
+    """Paper 2.3.5 on `sleeve_on_peg`: a tilt jams plain PTWL; a dither gets it in."""
+    insert = PtwlParams(translation=[0.0, 0.0, 0.06], duration=4.0, force_threshold=25.0)
+    yield Ptwl(PtwlParams(rotation=[0.05, 0.0, 0.0], duration=1.0, preset="medium"))
+    yield Ptwl(insert)
+    yield Rwe(RweParams())
+    yield Dither(DitherParams(preset="torsional_push"))
+    yield Ptwl(insert)
+
+
+def status_line(sim: Simulation) -> str:
+    state = sim.state()
+    task = sim.task()
+    x, y, z = state.port.position
+    fx, fy, fz = state.wrench[0:3]
+    running = state.behavior or "idle"
+    return (
+        f"t={state.sim_time:7.2f} s  port=({x:+.4f}, {y:+.4f}, {z:+.4f}) m  "
+        f"f=({fx:+6.2f}, {fy:+6.2f}, {fz:+6.2f}) N  {running:7s}  "
+        f"task: {task.progress:+.4f} {task.unit} ({'done' if task.success else 'not yet'})"
+    )
+
+
+def report_line(report: BehaviorReport) -> str:
+    return (
+        f"  -> {report.behavior} ended {report.exit.value} after {report.duration:.2f} s "
+        f"(peak {report.peak_force:.1f} N, {report.peak_torque:.2f} N m)"
+    )
+
+
+def cmd_up(args: argparse.Namespace) -> int:
+    scene = args.scene or ("sleeve_on_peg" if args.demo else "surface")
+    sim = Simulation(scene, seed=args.seed)
+    pacer = RealTimePacer(sim)
+    pending = demo_sequence() if args.demo else iter(())
+    print(f"ptwl: robot up on scene {scene!r} (real time, Ctrl-C to stop)", flush=True)
+    next_status = 0.0
+    try:
+        while args.seconds is None or sim.time < args.seconds:
+            if sim.behavior is None:
+                behavior = next(pending, None)
+                if behavior is not None:
+                    print(f"  <- {behavior.kind}", flush=True)
+                    sim.start(behavior)
+            pacer.advance(on_report=lambda r: print(report_line(r), flush=True))
+            if sim.time >= next_status:
+                print(status_line(sim), flush=True)
+                next_status += 1.0
+    except KeyboardInterrupt:
+        print("\nptwl: stopped", flush=True)
+    return 0
+
+
+def cmd_scenes(_: argparse.Namespace) -> int:
+    for name, scene in SCENES.items():
+        print(f"{name:15s} {scene.description}")
+    return 0
+
+
+def cmd_presets(_: argparse.Namespace) -> int:
+    presets = default_presets()
+    out = {
+        "stiffness": {name: spec.model_dump() for name, spec in presets.stiffness.items()},
+        "dither": {name: p.model_dump(exclude={"type", "preset"}) for name, p in presets.dither.items()},
+    }
+    print(json.dumps(out, indent=2))
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="ptwl", description="PTWL supervisory control console")
+    sub = parser.add_subparsers(dest="command", required=True)
+    up = sub.add_parser("up", help="run the robot (headless, real time) and print its status")
+    up.add_argument("--scene", choices=list(SCENES), help="default: surface (sleeve_on_peg with --demo)")
+    up.add_argument("--seed", type=int, default=None, help="jitter the fixture (default: nominal)")
+    up.add_argument("--demo", action="store_true", help="run the paper's sleeve-on-peg sequence")
+    up.add_argument("--seconds", type=float, default=None, help="stop after this much sim time")
+    up.set_defaults(func=cmd_up)
+    sub.add_parser("scenes", help="list scenes").set_defaults(func=cmd_scenes)
+    sub.add_parser("presets", help="print stiffness and dither presets").set_defaults(func=cmd_presets)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args))
+    except RobotSimError as err:
+        print(f"ptwl: {err}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
