@@ -73,7 +73,10 @@ def test_ptwl_lists_scenes_and_presets(capsys: pytest.CaptureFixture[str]) -> No
 
 def test_ptwl_rejects_an_unknown_scene() -> None:
     result = subprocess.run(
-        [sys.executable, "-m", "server.cli", "up", "--scene", "moon"], capture_output=True, text=True, timeout=60
+        [sys.executable, "-m", "server.cli", "up", "--scene", "moon"],
+        capture_output=True,
+        text=True,
+        timeout=60,
     )
     assert result.returncode == 2
     assert "invalid choice: 'moon'" in result.stderr and "sleeve_on_peg" in result.stderr
