@@ -118,8 +118,8 @@ class AdmittanceController:
         self._max_dqdot = JOINT_ACCEL_LIMIT * control_dt  # [rad/s] per tick
         # Fast path: |qdot|_2 below the smallest limit cannot break any joint's limit.
         self._min_speed_limit = float(layout.joint_speed_limit.min())
-        self._lower_soft = layout.joint_range[:, 0] + 2 * JOINT_LIMIT_MARGIN_RAD
-        self._upper_soft = layout.joint_range[:, 1] - 2 * JOINT_LIMIT_MARGIN_RAD
+        self._lower_soft = (layout.joint_range[:, 0] + 2 * JOINT_LIMIT_MARGIN_RAD).tolist()
+        self._upper_soft = (layout.joint_range[:, 1] - 2 * JOINT_LIMIT_MARGIN_RAD).tolist()
         self._near_joint_limit = False
         self._refresh_every_tick = False
         self._ticks = 0
@@ -146,12 +146,13 @@ class AdmittanceController:
 
         Written with preallocated arrays: it runs at 1/KINEMATICS_TICKS of the control rate.
         """
+        # (MuJoCo's own bad qpos/qvel/qacc checks reset the data; Simulation.step catches that.)
         if not (math.isfinite(mujoco.mju_sum(self._v)) and math.isfinite(mujoco.mju_sum(self._qpos))):
             raise SimulationFault("non-finite wrench, stretch or joint position")
-        if self.data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number:
-            raise SimulationFault("MuJoCo reported unstable accelerations (bad qacc)")
-        q = self._qpos
-        self._near_joint_limit = bool((q < self._lower_soft).any() or (q > self._upper_soft).any())
+        q = self._qpos.tolist()
+        self._near_joint_limit = any(
+            not lo < qi < hi for qi, lo, hi in zip(q, self._lower_soft, self._upper_soft, strict=True)
+        )
 
         # Sensor map: w_world = blockdiag(R, R) (M_s raw + M_g R^T g); the weight term is the
         # bias column (v[12] = 1).
@@ -221,11 +222,6 @@ class AdmittanceController:
         return self._inv_damping * (self.w_world_env_on_port + self.gains.stiffness * s)
 
     # ---------------------------------------------------------------------------- ticks
-    def tick(self) -> None:
-        """One control period with the attractor left where it is: measure, then command."""
-        self.measure()
-        self.command()
-
     def command(self) -> None:
         """Stretch to the (possibly just moved) attractor, then qdot = Q v to the servos."""
         self._ticks += 1

@@ -10,6 +10,7 @@ sequence (tilt, jammed PTWL, RWE, torsional dither, PTWL) so every behavior and 
 
 import argparse
 import json
+import signal
 import sys
 from collections.abc import Iterator
 
@@ -55,7 +56,12 @@ def report_line(report: BehaviorReport) -> str:
     )
 
 
+def _stop_on_sigterm(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt  # same clean stop as Ctrl-C
+
+
 def cmd_up(args: argparse.Namespace) -> int:
+    signal.signal(signal.SIGTERM, _stop_on_sigterm)
     scene = args.scene or ("sleeve_on_peg" if args.demo else "surface")
     sim = Simulation(scene, seed=args.seed)
     pacer = RealTimePacer(sim)

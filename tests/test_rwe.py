@@ -50,3 +50,18 @@ def test_rwe_times_out_when_the_environment_keeps_pushing() -> None:
     # Residual below what a still-settling press can reach in 1 ms: the exit says "not relieved".
     report = sim.run_behavior(Rwe(RweParams(duration=0.001, force_residual=0.01)))
     assert report.exit is ExitCondition.TIMEOUT
+
+
+def test_hold_position_aborts_and_puts_the_attractor_on_the_port() -> None:
+    sim = Simulation("free_space")
+    sim.start(Ptwl(PtwlParams(translation=[0.1, 0.0, 0.0], duration=3.0)))
+    sim.run(1.0)
+    report = sim.hold_position()
+    assert report is not None and report.exit is ExitCondition.ABORTED
+    held = sim.controller.p_world_port.copy()
+    sim.run(1.0)
+    # The port coasts to a stop within a few mm (it was moving at ~35 mm/s) and stays.
+    assert float(((sim.controller.p_world_port - held) ** 2).sum() ** 0.5) < 0.005
+    moved = sim.controller.p_world_port.copy()
+    sim.run(1.0)
+    assert float(((sim.controller.p_world_port - moved) ** 2).sum() ** 0.5) < 1e-4

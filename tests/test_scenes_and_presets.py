@@ -5,6 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from robot_sim.behaviors import BehaviorParams, behavior_for
 from robot_sim.behaviors.dither import Dither
 from robot_sim.behaviors.ptwl import Ptwl
 from robot_sim.behaviors.rwe import Rwe
@@ -109,3 +110,13 @@ def test_bad_config_names_the_key_and_the_problem(tmp_path: Path, text: str, mes
         load_presets(path)
     assert str(path) in str(err.value)
     assert message in str(err.value)
+
+
+@pytest.mark.parametrize(
+    ("params", "kind"),
+    [(PtwlParams(), "ptwl"), (RweParams(), "rwe"), (DitherParams(preset="translational_pull"), "dither")],
+)
+def test_behavior_for_dispatches_on_the_request_type(params: BehaviorParams, kind: str) -> None:
+    behavior = behavior_for(params)
+    assert behavior.kind == kind == params.type
+    assert behavior_for(params) is not behavior  # a fresh instance per command
