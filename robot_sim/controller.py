@@ -7,8 +7,9 @@ Per control tick:
     t_des  = B^-1 (w + K s)                                   (eq. 5, K and B diagonal, base axes)
     qdot   = J^T (J J^T + lambda^2 I)^-1 t_des                 (damped least squares)
 
-then joint velocities are held to the joint speed limits and tapered near joint limits, and
-sent to the joint servos (ctrl = qdot for the integrated-velocity and the feed-forward servo).
+then joint velocities are held to the joint speed and acceleration limits and tapered near
+joint limits, and sent to the joint servos (ctrl = qdot for the integrated-velocity and the
+feed-forward servo).
 
 Multi-rate, because Python call overhead (~0.4 us a call) would otherwise cost more than the
 physics: the *signals* (raw wrench, stretch) are read every tick, and everything between them
@@ -19,8 +20,9 @@ and the joint velocities is linear in them, so it is one precomposed (6, 13) mat
 where Q = P [G_w D | diag(K/B)_pos | diag(K/B)_rot R_port | G_w bias], P the DLS inverse,
 D and bias the payload-compensated sensor map rotated to base axes. Q depends only on the
 arm's configuration (J, sensor and port orientation) and is rebuilt every KINEMATICS_TICKS
-ticks: at the arm's top wrist speed the configuration moves < 0.03 rad in that time, and at
-quasi-static speeds < 1 mrad. Wrench and stretch feedback stay at the full 1 kHz.
+ticks (8 ms), or every tick while |qdot| > 1 rad/s or near a singularity: between rebuilds the
+configuration moves < 8 mrad, and < 1 mrad at quasi-static speeds. Wrench and stretch feedback
+stay at the full 1 kHz.
 """
 
 import math
@@ -116,8 +118,6 @@ class AdmittanceController:
         self._jacr = self._jac[3:6]
         self._inv_speed_limit = 1.0 / layout.joint_speed_limit
         self._max_dqdot = JOINT_ACCEL_LIMIT * control_dt  # [rad/s] per tick
-        # Fast path: |qdot|_2 below the smallest limit cannot break any joint's limit.
-        self._min_speed_limit = float(layout.joint_speed_limit.min())
         self._lower_soft = (layout.joint_range[:, 0] + 2 * JOINT_LIMIT_MARGIN_RAD).tolist()
         self._upper_soft = (layout.joint_range[:, 1] - 2 * JOINT_LIMIT_MARGIN_RAD).tolist()
         self._near_joint_limit = False
@@ -235,6 +235,8 @@ class AdmittanceController:
         # Slow commands far from limits and singularities need no limiting (the common case).
         if mujoco.mju_norm(qdot) > FAST_REFRESH_SPEED or self._refresh_every_tick or self._near_joint_limit:
             self._limit_joint_motion(qdot, previous=self._ctrl_vel)
+        else:
+            self.speed_scale = 1.0
         self._ctrl_vel[:] = qdot
 
     def _limit_joint_motion(self, qdot: np.ndarray, previous: np.ndarray) -> None:
