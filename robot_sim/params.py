@@ -89,7 +89,7 @@ class GainsSpec(StrictModel):
 class PtwlParams(StrictModel):
     """Pose Target Wrench Limiting: move the attractor to port (+) displacement over `duration`."""
 
-    type: Literal["ptwl"] = "ptwl"
+    type: Literal["ptwl"] = Field("ptwl", description="behavior: ptwl")
     translation: Annotated[Vec3, _vector(limits.MAX_TRANSLATION_M, "m")] = Field(
         default_factory=lambda: [0.0, 0.0, 0.0], description="[m], in `frame`; |t| <= 1 m"
     )
@@ -123,7 +123,7 @@ class PtwlParams(StrictModel):
 class RweParams(StrictModel):
     """Reset Wrench Equilibrium on the selected axes; the others keep their stretch."""
 
-    type: Literal["rwe"] = "rwe"
+    type: Literal["rwe"] = Field("rwe", description="behavior: rwe")
     axes: list[AxisName] = Field(
         default_factory=lambda: list(AXIS_NAMES), min_length=1, description="axes to relieve"
     )
@@ -144,10 +144,12 @@ class RweParams(StrictModel):
 class DitherParams(StrictModel):
     """Dither: wiggle the attractor while advancing (push) or retreating (pull) along an axis."""
 
-    type: Literal["dither"] = "dither"
+    type: Literal["dither"] = Field("dither", description="behavior: dither")
     preset: str | None = Field(None, description="one of the dither presets; other fields override it")
-    mode: Literal["torsional", "translational"] = "torsional"
-    direction: Literal["push", "pull"] = "push"
+    mode: Literal["torsional", "translational"] = Field(
+        "torsional", description="torsional: conical wobble of the orientation; translational: circles"
+    )
+    direction: Literal["push", "pull"] = Field("push", description="advance along the axis, or retreat")
     axis: Annotated[Vec3, _vector(math.inf, "", nonzero=True)] = Field(
         default_factory=lambda: [0.0, 0.0, 1.0], description="tool frame direction (normalized)"
     )

@@ -10,6 +10,7 @@ sequence (tilt, jammed PTWL, RWE, torsional dither, PTWL) so every behavior and 
 
 import argparse
 import json
+import os
 import signal
 import sys
 from collections.abc import Iterator
@@ -23,6 +24,7 @@ from robot_sim.params import DitherParams, PtwlParams, RweParams
 from robot_sim.presets import default_presets
 from robot_sim.scenes import SCENES
 from robot_sim.sim import Simulation
+from server.config import ConfigError
 from server.pacing import RealTimePacer
 
 
@@ -84,6 +86,23 @@ def cmd_up(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_serve(args: argparse.Namespace) -> int:
+    from server.config import ServerConfig
+    from server.serve import serve
+
+    config = ServerConfig(
+        host=args.host,
+        port=args.port,
+        scene=args.scene,
+        seed=args.seed,
+        telemetry_hz=args.telemetry_hz,
+        token=args.token or None,
+        fault_injection=args.fault_injection,
+    )
+    serve(config)
+    return 0
+
+
 def cmd_scenes(_: argparse.Namespace) -> int:
     for name, scene in SCENES.items():
         print(f"{name:15s} {scene.description}")
@@ -109,6 +128,15 @@ def build_parser() -> argparse.ArgumentParser:
     up.add_argument("--demo", action="store_true", help="run the paper's sleeve-on-peg sequence")
     up.add_argument("--seconds", type=float, default=None, help="stop after this much sim time")
     up.set_defaults(func=cmd_up)
+    serve = sub.add_parser("serve", help="run the robot server (REST + WebSocket telemetry)")
+    serve.add_argument("--host", default="127.0.0.1", help="bind address (non-loopback needs --token)")
+    serve.add_argument("--port", type=int, default=8000, help="0 picks a free port (printed)")
+    serve.add_argument("--scene", choices=list(SCENES), default="surface")
+    serve.add_argument("--seed", type=int, default=None)
+    serve.add_argument("--telemetry-hz", type=float, default=50.0, help="state messages per second")
+    serve.add_argument("--token", default=os.environ.get("PTWL_TOKEN"), help="access token (or PTWL_TOKEN)")
+    serve.add_argument("--fault-injection", action="store_true", help=argparse.SUPPRESS)
+    serve.set_defaults(func=cmd_serve)
     sub.add_parser("scenes", help="list scenes").set_defaults(func=cmd_scenes)
     sub.add_parser("presets", help="print stiffness and dither presets").set_defaults(func=cmd_presets)
     return parser
@@ -118,7 +146,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args))
-    except RobotSimError as err:
+    except (RobotSimError, ConfigError, OSError) as err:
         print(f"ptwl: {err}", file=sys.stderr)
         return 2
 

@@ -2,7 +2,7 @@
 
 robot_sim runs as fast as the CPU allows; this paces it. Steps run in small batches and the
 loop sleeps until the wall clock catches up, so sim time tracks wall time to within one batch
-(BATCH_S) at any moment and does not drift over long runs (deadlines are absolute, not summed).
+at any moment and does not drift over long runs (deadlines are absolute, not summed).
 If the CPU falls behind by more than MAX_LAG_S, the pacer drops the backlog instead of racing
 to catch up, and counts it.
 """
@@ -13,14 +13,22 @@ from collections.abc import Callable
 from robot_sim.behaviors.base import BehaviorReport
 from robot_sim.sim import Simulation
 
-BATCH_S = 0.005  # [s] sim time stepped between clock checks
+BATCH_S = 0.005  # [s] sim time stepped between clock checks (default)
 MAX_LAG_S = 0.25  # [s] behind the wall clock before the backlog is dropped
 
 
 class RealTimePacer:
-    def __init__(self, sim: Simulation, clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(
+        self,
+        sim: Simulation,
+        clock: Callable[[], float] = time.monotonic,
+        batch_s: float = BATCH_S,
+        sleep: Callable[[float], object] = time.sleep,
+    ) -> None:
         self.sim = sim
         self._clock = clock
+        self._batch_s = batch_s
+        self._sleep = sleep
         self._wall0 = clock()
         self._sim0 = sim.time
         self.dropped_s = 0.0  # [s] of sim time skipped because the CPU fell behind
@@ -39,10 +47,10 @@ class RealTimePacer:
         """Step one batch if the sim is due, otherwise sleep until it is."""
         lag = self.lag_s()
         if lag < 0.0:
-            time.sleep(min(-lag, BATCH_S))
+            self._sleep(min(-lag, self._batch_s))
             return
         if lag > MAX_LAG_S:
             self.dropped_s += lag
-        for report in self.sim.run(BATCH_S):
+        for report in self.sim.run(self._batch_s):
             if on_report is not None:
                 on_report(report)

@@ -1,0 +1,146 @@
+"""A small typed client for the robot server (or the link proxy in front of it).
+
+    with RobotClient("http://127.0.0.1:8000") as robot:
+        cmd = robot.ptwl(translation=[0, 0, 0.05], force_threshold=15)
+        done = robot.wait(cmd.id)
+        print(done.exit, done.peak_force)
+
+Responses are the server's own pydantic models; errors raise RobotError with the status code
+and the server's `detail`. `telemetry()` yields the WebSocket's messages as dicts.
+"""
+
+import json
+import time
+from collections.abc import Iterator
+from types import TracebackType
+from typing import Any, Self
+
+import httpx
+from websockets.sync.client import connect
+
+from server.models import (
+    CommandAccepted,
+    CommandStatus,
+    HealthModel,
+    RobotStateModel,
+    SceneModel,
+    StopResult,
+    TaskModel,
+)
+
+LONG_POLL_CHUNK_S = 30.0
+
+
+class RobotError(Exception):
+    """The server answered 4xx/5xx."""
+
+    def __init__(self, status_code: int, detail: Any) -> None:
+        super().__init__(f"{status_code}: {detail}")
+        self.status_code = status_code
+        self.detail = detail
+
+
+class RobotClient:
+    def __init__(
+        self, base_url: str = "http://127.0.0.1:8000", token: str | None = None, timeout: float = 10.0
+    ):
+        self.base_url = base_url.rstrip("/")
+        self.token = token
+        headers = {"Authorization": f"Bearer {token}"} if token else {}
+        self._http = httpx.Client(base_url=self.base_url, headers=headers, timeout=timeout)
+
+    # ------------------------------------------------------------------ plumbing
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc: "type[BaseException] | BaseException | TracebackType | None") -> None:
+        self.close()
+
+    def close(self) -> None:
+        self._http.close()
+
+    def _request(self, method: str, path: str, **kwargs: Any) -> Any:
+        response = self._http.request(method, path, **kwargs)
+        if response.status_code >= 400:
+            try:
+                detail = response.json().get("detail", response.text)
+            except ValueError:
+                detail = response.text
+            raise RobotError(response.status_code, detail)
+        return response.json()
+
+    # --------------------------------------------------------------------- reads
+    def health(self) -> HealthModel:
+        return HealthModel(**self._request("GET", "/api/health"))
+
+    def state(self) -> RobotStateModel:
+        return RobotStateModel(**self._request("GET", "/api/state"))
+
+    def task(self) -> TaskModel:
+        return TaskModel(**self._request("GET", "/api/task"))
+
+    def presets(self) -> dict[str, Any]:
+        return self._request("GET", "/api/presets")
+
+    def scenes(self) -> list[SceneModel]:
+        return [SceneModel(**s) for s in self._request("GET", "/api/scenes")]
+
+    def commands(self, limit: int = 100) -> list[CommandStatus]:
+        return [CommandStatus(**c) for c in self._request("GET", "/api/commands", params={"limit": limit})]
+
+    def get(self, command_id: int, wait: float = 0.0) -> CommandStatus:
+        return CommandStatus(**self._request("GET", f"/api/commands/{command_id}", params={"wait": wait}))
+
+    # -------------------------------------------------------------------- writes
+    def command(self, type: str, **params: Any) -> CommandAccepted:
+        """Queue a behavior: `type` is ptwl, rwe or dither; params as in the API (SI units)."""
+        return CommandAccepted(**self._request("POST", "/api/commands", json={"type": type, **params}))
+
+    def ptwl(self, **params: Any) -> CommandAccepted:
+        return self.command("ptwl", **params)
+
+    def rwe(self, **params: Any) -> CommandAccepted:
+        return self.command("rwe", **params)
+
+    def dither(self, **params: Any) -> CommandAccepted:
+        return self.command("dither", **params)
+
+    def wait(self, command_id: int, timeout: float | None = None) -> CommandStatus:
+        """Long-poll until the command is done (or `timeout` [s] passes: then as it stands)."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            chunk = (
+                LONG_POLL_CHUNK_S
+                if deadline is None
+                else max(0.0, min(LONG_POLL_CHUNK_S, deadline - time.monotonic()))
+            )
+            status = self.get(command_id, wait=chunk)
+            if status.status == "done" or (deadline is not None and time.monotonic() >= deadline):
+                return status
+
+    def run(self, type: str, timeout: float | None = None, **params: Any) -> CommandStatus:
+        """Queue a behavior and wait for its exit."""
+        return self.wait(self.command(type, **params).id, timeout)
+
+    def stop(self) -> StopResult:
+        return StopResult(**self._request("POST", "/api/stop"))
+
+    def reset_scene(self, name: str, seed: int | None = None) -> StopResult:
+        return StopResult(**self._request("POST", "/api/scene", json={"name": name, "seed": seed}))
+
+    # ----------------------------------------------------------------- telemetry
+    def telemetry_url(self) -> str:
+        return (
+            self.base_url.replace("http://", "ws://", 1).replace("https://", "wss://", 1) + "/api/telemetry"
+        )
+
+    def telemetry(self, open_timeout: float = 10.0) -> Iterator[dict[str, Any]]:
+        """State and command messages as they arrive; stops when the server closes."""
+        headers = {"Authorization": f"Bearer {self.token}"} if self.token else None
+        # Keepalive pings off: over a multi-second link they would time out; the age of the
+        # telemetry (`sent_at`) is the liveness signal instead.
+        with connect(
+            self.telemetry_url(), additional_headers=headers, open_timeout=open_timeout, ping_interval=None
+        ) as ws:
+            for text in ws:
+                yield json.loads(text)

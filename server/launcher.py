@@ -1,0 +1,77 @@
+"""Run `ptwl serve` as a real subprocess on an ephemeral port (tests, benchmarks, `ptwl up`)."""
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+import httpx
+
+URL_PATTERN = re.compile(r"robot server on (http://\S+)")
+
+
+@dataclass
+class ServerProcess:
+    url: str
+    process: subprocess.Popen[str]
+    output: list[str]
+
+    @property
+    def port(self) -> int:
+        return int(self.url.rsplit(":", 1)[1])
+
+    def stop(self, sig: int = signal.SIGINT, timeout: float = 15.0) -> int:
+        if self.process.poll() is None:
+            self.process.send_signal(sig)
+        return self.process.wait(timeout)
+
+
+@contextmanager
+def running_server(*args: str, startup_timeout: float = 30.0) -> Iterator[ServerProcess]:
+    """Start `ptwl serve --port 0 ARGS`, wait until healthy, stop it with SIGINT afterwards."""
+    cmd = [sys.executable, "-m", "server.cli", "serve", "--port", "0", *args]
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    process = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
+    output: list[str] = []
+    found = threading.Event()
+    url: list[str] = []
+
+    def pump() -> None:
+        assert process.stdout is not None
+        for line in process.stdout:
+            output.append(line)
+            match = URL_PATTERN.search(line)
+            if match and not url:
+                url.append(match.group(1))
+                found.set()
+
+    threading.Thread(target=pump, daemon=True).start()
+    try:
+        if not found.wait(startup_timeout):
+            raise RuntimeError(f"server did not start: {''.join(output)}")
+        server = ServerProcess(url[0], process, output)
+        deadline = time.monotonic() + startup_timeout
+        while True:
+            try:
+                if httpx.get(server.url + "/api/health", timeout=2.0).status_code == 200:
+                    break
+            except httpx.TransportError:
+                pass
+            if time.monotonic() > deadline or process.poll() is not None:
+                raise RuntimeError(f"server not healthy: {''.join(output)}")
+            time.sleep(0.05)
+        yield server
+    finally:
+        if process.poll() is None:
+            process.send_signal(signal.SIGINT)
+            try:
+                process.wait(15)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()

@@ -1,0 +1,96 @@
+"""API request and response models: the contract in ARCHITECTURE.md, SI units, base frame.
+
+Behavior parameters are robot_sim.params' models themselves, so the API, the config loader and
+the library validate the same way.
+"""
+
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, Field
+
+from robot_sim.params import DitherParams, PtwlParams, RweParams
+
+Command = Annotated[PtwlParams | RweParams | DitherParams, Field(discriminator="type")]
+CommandState = Literal["queued", "running", "done"]
+
+
+class PoseModel(BaseModel):
+    position: list[float] = Field(description="[m] x y z, base frame")
+    quaternion: list[float] = Field(description="unit quaternion w x y z, base frame")
+
+
+class CommandAccepted(BaseModel):
+    id: int = Field(description="command id, for GET /api/commands/{id}")
+    status: Literal["queued"] = Field("queued", description="always `queued`")
+
+
+class CommandStatus(BaseModel):
+    """One command's life; report fields are filled when it is done."""
+
+    id: int = Field(description="command id")
+    type: Literal["ptwl", "rwe", "dither"] = Field(description="the behavior")
+    status: CommandState = Field(description="queued, running or done")
+    exit: str | None = Field(
+        None, description="goal_reached | wrench_breach | timeout | completed | aborted | fault"
+    )
+    params: dict[str, Any] = Field(description="the validated parameters, defaults filled in")
+    queued_at: float = Field(description="[s] server wall clock, Unix time")
+    started_at: float | None = Field(None, description="[s] Unix time")
+    ended_at: float | None = Field(None, description="[s] Unix time")
+    duration: float | None = Field(None, description="[s] sim time from start to exit")
+    peak_force: float | None = Field(None, description="[N] max |f| on the port while running")
+    peak_torque: float | None = Field(None, description="[N m] max |tau| about the port while running")
+    final_wrench: list[float] | None = Field(None, description="[N, N m] environment on port at exit")
+    final_port: PoseModel | None = Field(None, description="port pose at exit")
+    detail: str = Field("", description="why it ended, when there is more to say (stop, fault)")
+
+
+class RobotStateModel(BaseModel):
+    sim_time: float = Field(description="[s] simulation time since the scene was loaded")
+    port: PoseModel = Field(description="port of interaction (tool frame), base frame")
+    attractor: PoseModel = Field(description="virtual attractor, base frame")
+    wrench: list[float] = Field(description="[N, N m] environment on the port, base axes, about the port")
+    joint_positions: list[float] = Field(description="[rad] joints 1-6")
+    active_command: int | None = Field(description="id of the running command, or null")
+    scene: str = Field(description="loaded scene")
+    manipulability: float = Field(description="sqrt(det(J J^T)); the DLS damps below 0.012")
+    faults: int = Field(description="simulation faults since start (each reset the scene)")
+
+
+class HealthModel(BaseModel):
+    status: Literal["ok"] = Field(description="the server answers; see `faults` for the simulation")
+    sim_time: float = Field(description="[s] simulation time since the scene was loaded")
+    faults: int = Field(description="simulation faults since start; each ended its command `fault`")
+    last_fault: str | None = Field(description="what the last fault was, or null")
+    real_time_lag: float = Field(description="[s] wall time minus sim time; ~0 when keeping up")
+    queued: int = Field(description="commands waiting to run")
+
+
+class SceneRequest(BaseModel):
+    name: str = Field(description="a scene from GET /api/scenes")
+    seed: int | None = Field(None, description="jitters the fixture; null for the nominal layout")
+
+
+class SceneModel(BaseModel):
+    name: str = Field(description="scene name for POST /api/scene")
+    description: str = Field(description="what is in it")
+
+
+class TaskModel(BaseModel):
+    scene: str = Field(description="loaded scene")
+    predicate: str = Field(description="what success means, in words")
+    success: bool = Field(description="the predicate holds now")
+    progress: float = Field(description="the measured quantity, in `unit`")
+    target: float = Field(description="the value `progress` must reach, in `unit`")
+    unit: str = Field(description="unit of `progress` and `target`")
+
+
+class StopResult(BaseModel):
+    aborted: int | None = Field(description="the command that was running, now `aborted`")
+    dropped: list[int] = Field(description="queued commands dropped (ended `aborted`)")
+
+
+class GainsPreset(BaseModel):
+    stiffness: list[float] = Field(description="[N/m x3, N m/rad x3]")
+    damping: list[float] = Field(description="[N s/m x3, N m s/rad x3]")
+    description: str = ""

@@ -1,0 +1,62 @@
+"""Commands: queue a behavior, follow it, stop everything."""
+
+import asyncio
+import contextlib
+from typing import Annotated
+
+from fastapi import APIRouter, Body, HTTPException, Query, Request, status
+
+from server.auth import Authorized
+from server.models import Command, CommandAccepted, CommandStatus, StopResult
+from server.routes.deps import Book, DoneWaiters, Runner, on_sim_thread
+from server.runner import command_event
+
+router = APIRouter(prefix="/api", tags=["commands"])
+
+MAX_WAIT_S = 60.0
+
+
+@router.post("/commands", status_code=status.HTTP_202_ACCEPTED, response_model=CommandAccepted)
+async def submit_command(
+    request: Request, _: Authorized, book: Book, params: Annotated[Command, Body(discriminator="type")]
+) -> CommandAccepted:
+    """Validate and queue a PTWL, RWE or Dither; commands run in order, one at a time."""
+    record = book.submit(params)
+    request.app.state.broadcaster.publish(command_event(record))
+    return CommandAccepted(id=record.id)
+
+
+@router.get("/commands", response_model=list[CommandStatus])
+async def list_commands(
+    _: Authorized, book: Book, limit: Annotated[int, Query(ge=1, le=1000, description="how many")] = 100
+) -> list[CommandStatus]:
+    """Recent commands, newest last."""
+    return book.recent(limit)
+
+
+@router.get("/commands/{command_id}", response_model=CommandStatus)
+async def get_command(
+    command_id: int,
+    _: Authorized,
+    book: Book,
+    waiters: DoneWaiters,
+    wait: Annotated[float, Query(ge=0.0, le=MAX_WAIT_S, description="[s] hold until done, up to this")] = 0.0,
+) -> CommandStatus:
+    """A command's status; with `wait`, answers as soon as it is done (or when `wait` runs out)."""
+    found = book.get(command_id)
+    if found is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"no command {command_id}")
+    if wait > 0.0 and found.status != "done":
+        event = waiters.event_for(command_id)
+        if not book.is_done(command_id):  # it may have finished since the first look
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(event.wait(), wait)
+        found = book.get(command_id)
+        assert found is not None
+    return found
+
+
+@router.post("/stop", response_model=StopResult)
+async def stop(_: Authorized, runner: Runner) -> StopResult:
+    """Abort the running command, drop the queue, hold the robot where it is."""
+    return StopResult(**await on_sim_thread(runner, runner.stop_all))

@@ -1,0 +1,58 @@
+"""The robot's state, its task progress, health and presets."""
+
+from typing import Any
+
+from fastapi import APIRouter, Request
+
+from robot_sim.presets import default_presets
+from server.auth import Authorized
+from server.models import GainsPreset, HealthModel, RobotStateModel, TaskModel
+from server.routes.deps import Book, Runner, on_sim_thread
+
+router = APIRouter(prefix="/api", tags=["robot"])
+
+
+@router.get("/health", response_model=HealthModel)
+async def health(runner: Runner, book: Book) -> HealthModel:
+    """Liveness; open without a token. `faults` counts simulation faults (each reset the scene)."""
+    state = runner.latest_state
+    return HealthModel(
+        status="ok",
+        sim_time=state["sim_time"],
+        faults=state["faults"],
+        last_fault=runner.last_fault,
+        real_time_lag=runner.real_time_lag(),
+        queued=book.queued_count(),
+    )
+
+
+@router.get("/state", response_model=RobotStateModel)
+async def state(_: Authorized, runner: Runner) -> dict[str, Any]:
+    """The latest telemetry state (at most one telemetry period old; see `sim_time`)."""
+    return runner.latest_state
+
+
+@router.get("/task", response_model=TaskModel)
+async def task(_: Authorized, runner: Runner) -> TaskModel:
+    """The scene's success predicate, evaluated now."""
+
+    def evaluate() -> TaskModel:
+        progress = runner.sim.task()
+        return TaskModel(scene=runner.sim.scene.name, **progress.__dict__)
+
+    return await on_sim_thread(runner, evaluate)
+
+
+@router.get("/presets")
+async def presets(_: Authorized, request: Request) -> dict[str, Any]:
+    """Stiffness/damping presets by name, `{name: {stiffness, damping}}`, plus the dither presets
+    under `dither`."""
+    loaded = default_presets()
+    out: dict[str, Any] = {
+        name: GainsPreset(
+            **spec.model_dump(), description=loaded.stiffness_descriptions.get(name, "")
+        ).model_dump()
+        for name, spec in loaded.stiffness.items()
+    }
+    out["dither"] = {name: p.model_dump(exclude={"type", "preset"}) for name, p in loaded.dither.items()}
+    return out

@@ -1,0 +1,22 @@
+"""Scenes: list them, reset to one."""
+
+from fastapi import APIRouter
+
+from robot_sim.scenes import SCENES, get_scene
+from server.auth import Authorized
+from server.models import SceneModel, SceneRequest, StopResult
+from server.routes.deps import Runner, on_sim_thread
+
+router = APIRouter(prefix="/api", tags=["scenes"])
+
+
+@router.get("/scenes", response_model=list[SceneModel])
+async def scenes(_: Authorized) -> list[SceneModel]:
+    return [SceneModel(name=s.name, description=s.description) for s in SCENES.values()]
+
+
+@router.post("/scene", response_model=StopResult)
+async def reset_scene(body: SceneRequest, _: Authorized, runner: Runner) -> StopResult:
+    """Stop everything (running and queued commands end `aborted`) and load the scene fresh."""
+    get_scene(body.name)  # 422 listing the valid names
+    return StopResult(**await on_sim_thread(runner, lambda: runner.reset_scene(body.name, body.seed)))

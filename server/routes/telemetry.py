@@ -1,0 +1,56 @@
+"""WS /api/telemetry: state at telemetry_hz and an event on every command status change.
+
+Each message gets `sent_at` (server wall clock, Unix seconds) as it leaves, so a client can
+measure how old it is on arrival.
+"""
+
+import asyncio
+import contextlib
+import time
+
+from fastapi import APIRouter, WebSocket, WebSocketDisconnect
+from fastapi.responses import JSONResponse
+
+from server.auth import websocket_token_ok
+from server.telemetry import CLIENT_BACKLOG, Broadcaster
+
+router = APIRouter(tags=["telemetry"])
+
+CLOSE_TOO_SLOW = 1013  # "try again later"
+
+
+async def _until_closed(ws: WebSocket) -> None:
+    with contextlib.suppress(WebSocketDisconnect, RuntimeError):
+        while True:
+            message = await ws.receive()
+            if message["type"] == "websocket.disconnect":
+                return
+
+
+@router.websocket("/api/telemetry")
+async def telemetry(ws: WebSocket) -> None:
+    allowed, code, reason = websocket_token_ok(ws)
+    if not allowed:
+        await ws.send_denial_response(JSONResponse({"detail": reason}, status_code=code - 4000))
+        return
+    await ws.accept()
+    broadcaster: Broadcaster = ws.app.state.broadcaster
+    sub = broadcaster.subscribe()
+    closed = asyncio.create_task(_until_closed(ws))
+    try:
+        while True:
+            next_message = asyncio.create_task(sub.queue.get())
+            done, _ = await asyncio.wait({next_message, closed}, return_when=asyncio.FIRST_COMPLETED)
+            if closed in done:
+                next_message.cancel()
+                return
+            if sub.too_slow:
+                await ws.close(CLOSE_TOO_SLOW, f"client too slow: fell {CLIENT_BACKLOG} messages behind")
+                return
+            text = next_message.result()
+            await ws.send_text(f'{text[:-1]}, "sent_at": {time.time():.6f}}}')
+    except (WebSocketDisconnect, RuntimeError):
+        return
+    finally:
+        broadcaster.unsubscribe(sub)
+        closed.cancel()

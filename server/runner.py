@@ -1,0 +1,182 @@
+"""The simulation thread: one Simulation, paced to real time, running commands in order.
+
+The physics never waits for HTTP: requests from the event loop reach this thread through an
+inbox it drains between 2 ms batches, and answers go back through futures. Telemetry and
+command events leave through `publish`, which must not block (the app hands them to the event
+loop with call_soon_threadsafe).
+"""
+
+import json
+import math
+import queue
+import threading
+from collections.abc import Callable
+from concurrent.futures import Future
+from dataclasses import dataclass
+from typing import Any
+
+from robot_sim.behaviors import BehaviorReport, behavior_for
+from robot_sim.scenes import get_scene
+from robot_sim.sim import Simulation
+from server.commands import CommandBook, CommandRecord
+from server.pacing import RealTimePacer
+
+BATCH_S = 0.002  # [s] sim time between inbox checks: bounds command start latency
+
+
+@dataclass
+class _Request:
+    action: Callable[[], Any]
+    reply: "Future[Any]"
+
+
+def _pose(p: Any) -> dict[str, list[float]]:
+    return p.as_dict()
+
+
+class SimRunner:
+    def __init__(
+        self,
+        scene: str,
+        seed: int | None,
+        telemetry_hz: float,
+        book: CommandBook,
+        publish: Callable[[str], object],
+        on_command_done: Callable[[int], object],
+    ) -> None:
+        get_scene(scene)  # fail early, listing the scenes
+        self.sim = Simulation(scene, seed)
+        self.book = book
+        self._publish = publish
+        self._on_command_done = on_command_done
+        self._period = 1.0 / telemetry_hz
+        self._batch = min(BATCH_S, self._period)
+        self._stop = threading.Event()
+        self._pacer = RealTimePacer(self.sim, batch_s=self._batch, sleep=self._stop.wait)
+        self._inbox: queue.SimpleQueue[_Request] = queue.SimpleQueue()
+        self._thread = threading.Thread(target=self._run, name="ptwl-sim", daemon=True)
+        self._seq = 0
+        self._next_telemetry = 0.0
+        self.latest_state: dict[str, Any] = self._state()
+        self.last_fault: str | None = None
+
+    # ----------------------------------------------------------------- lifecycle
+    def start(self) -> None:
+        self._pacer.rebase()
+        self._thread.start()
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=5.0)
+
+    # ------------------------------------------------- requests from other threads
+    def call(self, action: Callable[[], Any]) -> "Future[Any]":
+        """Run `action` on the simulation thread between batches; its result via the future."""
+        reply: Future[Any] = Future()
+        self._inbox.put(_Request(action, reply))
+        return reply
+
+    def stop_all(self) -> dict[str, Any]:
+        """(simulation thread) Abort the running command, drop the queue, hold the robot."""
+        dropped = self.book.drop_queued("dropped by stop")
+        for record in dropped:
+            self._emit_command(record)
+        running = self.book.running
+        report = self.sim.hold_position()  # ends the running behavior `aborted`, "stopped"
+        if report is not None:
+            self._command_done(report)
+        return {"aborted": running.id if running else None, "dropped": [r.id for r in dropped]}
+
+    def reset_scene(self, name: str, seed: int | None) -> dict[str, Any]:
+        """(simulation thread) Stop everything and load `name` fresh."""
+        stopped = self.stop_all()
+        self.sim.reset(name, seed)
+        self._pacer.rebase()
+        self._next_telemetry = 0.0
+        self.latest_state = self._state()
+        return stopped
+
+    def real_time_lag(self) -> float:
+        """[s] wall time minus sim time since the scene (re)started; ~0 when keeping up."""
+        return self._pacer.lag_s()
+
+    def inject_fault(self) -> None:
+        """(simulation thread) Test hook: poison the physics so the next step faults."""
+        self.sim.data.qvel[0] = math.nan
+
+    # ------------------------------------------------------------------ the loop
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            self._serve_inbox()
+            if self.sim.behavior is None:
+                self._start_next()
+            self._advance()
+            if self.sim.time >= self._next_telemetry:
+                self._publish_state()
+
+    def _serve_inbox(self) -> None:
+        while True:
+            try:
+                request = self._inbox.get_nowait()
+            except queue.Empty:
+                return
+            try:
+                request.reply.set_result(request.action())
+            except Exception as err:  # handed to the caller, never kills the loop
+                request.reply.set_exception(err)
+
+    def _start_next(self) -> None:
+        record = self.book.start_next()
+        if record is None:
+            return
+        self.sim.start(behavior_for(record.params))
+        self._emit_command(record)
+
+    def _advance(self) -> None:
+        faults_before = self.sim.fault_count
+        self._pacer.advance(on_report=self._command_done)
+        if self.sim.fault_count != faults_before:
+            self.last_fault = self.sim.last_fault
+            self._pacer.rebase()  # the scene reloaded at t = 0
+            self._next_telemetry = 0.0
+
+    def _command_done(self, report: BehaviorReport) -> None:
+        record = self.book.finish(report)
+        if record is not None:
+            self._emit_command(record)
+            self._on_command_done(record.id)
+
+    # ----------------------------------------------------------------- telemetry
+    def _state(self) -> dict[str, Any]:
+        state = self.sim.state()
+        running = self.book.running
+        return {
+            "sim_time": state.sim_time,
+            "port": _pose(state.port),
+            "attractor": _pose(state.attractor),
+            "wrench": list(state.wrench),
+            "joint_positions": list(state.joint_positions),
+            "active_command": running.id if running else None,
+            "scene": state.scene,
+            "manipulability": state.manipulability,
+            "faults": self.sim.fault_count,
+        }
+
+    def _publish_state(self) -> None:
+        self.latest_state = state = self._state()
+        self._seq += 1
+        self._publish(json.dumps({"type": "state", "seq": self._seq, **state}))
+        self._next_telemetry += self._period
+        if self._next_telemetry < self.sim.time:  # fell behind (dropped backlog): no burst
+            self._next_telemetry = self.sim.time + self._period
+
+    def _emit_command(self, record: CommandRecord) -> None:
+        self._publish(command_event(record))
+
+
+def command_event(record: CommandRecord) -> str:
+    """`{"type": "command", ...command}`; the command's own `type` (ptwl, rwe, dither) would
+    collide with the message type, so it travels as `behavior`."""
+    command = record.to_model().model_dump()
+    command["behavior"] = command.pop("type")
+    return json.dumps({"type": "command", **command})

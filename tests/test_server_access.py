@@ -1,0 +1,84 @@
+"""Access: loopback by default; a non-loopback bind needs a token; the token guards the API."""
+
+import asyncio
+import subprocess
+import sys
+from collections.abc import Iterator
+
+import httpx
+import pytest
+import websockets
+
+from server.config import ConfigError, ServerConfig, is_loopback
+from server.launcher import ServerProcess, running_server
+
+TOKEN = "s3cret-token"
+
+
+@pytest.fixture(scope="module")
+def guarded() -> Iterator[ServerProcess]:
+    with running_server("--scene", "free_space", "--token", TOKEN) as srv:
+        yield srv
+
+
+def test_default_bind_is_loopback() -> None:
+    assert ServerConfig().host == "127.0.0.1"
+    assert is_loopback("127.0.0.1") and is_loopback("::1") and is_loopback("localhost")
+    assert not is_loopback("0.0.0.0") and not is_loopback("192.0.2.1")
+
+
+def test_non_loopback_bind_without_token_refuses_to_start() -> None:
+    with pytest.raises(ConfigError, match="needs an access token"):
+        ServerConfig(host="0.0.0.0").check()
+    result = subprocess.run(
+        [sys.executable, "-m", "server.cli", "serve", "--host", "0.0.0.0", "--port", "0"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env={"PATH": "/usr/bin:/bin"},
+    )
+    assert result.returncode == 2
+    assert "refusing to bind 0.0.0.0: a non-loopback address needs an access token" in result.stderr
+
+
+@pytest.mark.parametrize(
+    ("method", "path", "body"),
+    [
+        ("GET", "/api/state", None),
+        ("POST", "/api/commands", {"type": "rwe"}),
+        ("POST", "/api/stop", None),
+        ("POST", "/api/scene", {"name": "surface"}),
+        ("GET", "/api/commands", None),
+    ],
+)
+def test_token_required_401_missing_403_wrong(
+    guarded: ServerProcess, method: str, path: str, body: dict | None
+) -> None:
+    url = guarded.url + path
+    missing = httpx.request(method, url, json=body)
+    assert missing.status_code == 401 and "Bearer" in missing.json()["detail"]
+    wrong = httpx.request(method, url, json=body, headers={"Authorization": "Bearer nope"})
+    assert wrong.status_code == 403
+    right = httpx.request(method, url, json=body, headers={"Authorization": f"Bearer {TOKEN}"})
+    assert right.status_code in (200, 202)
+
+
+def test_health_stays_open(guarded: ServerProcess) -> None:
+    assert httpx.get(guarded.url + "/api/health").status_code == 200
+
+
+def test_websocket_needs_the_token_too(guarded: ServerProcess) -> None:
+    url = guarded.url.replace("http://", "ws://") + "/api/telemetry"
+
+    async def status_of(target: str, headers: dict[str, str] | None = None) -> int:
+        try:
+            async with websockets.connect(target, additional_headers=headers, ping_interval=None) as ws:
+                await asyncio.wait_for(ws.recv(), 2.0)
+                return 101
+        except websockets.InvalidStatus as err:
+            return err.response.status_code
+
+    assert asyncio.run(status_of(url)) == 401
+    assert asyncio.run(status_of(url, {"Authorization": "Bearer nope"})) == 403
+    assert asyncio.run(status_of(url, {"Authorization": f"Bearer {TOKEN}"})) == 101
+    assert asyncio.run(status_of(url + f"?token={TOKEN}")) == 101  # browsers cannot set headers

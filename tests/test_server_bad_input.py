@@ -1,0 +1,143 @@
+"""Bad input gets a clear 4xx naming the field and the allowed range, and loses nothing.
+
+Every case runs with one command running and one queued; afterwards the simulation is still
+advancing, both commands are untouched, and a valid command still runs to its exit.
+"""
+
+import time
+from collections.abc import Iterator
+
+import httpx
+import pytest
+
+from server.client import RobotClient
+from server.launcher import ServerProcess
+
+BAD_COMMANDS = {
+    "json_nan_token": ('{"type": "ptwl", "duration": NaN}', 422, ["duration", "finite", "(0, 600] s"]),
+    "json_infinity_token": (
+        '{"type": "ptwl", "translation": [0, Infinity, 0]}',
+        422,
+        ["translation", "component 1 must be a finite number"],
+    ),
+    "translation_over_1_m": (
+        '{"type": "ptwl", "translation": [0.8, 0.8, 0]}',
+        422,
+        ["translation", "<= 1 m"],
+    ),
+    "rotation_over_pi": ('{"type": "ptwl", "rotation": [0, 0, 3.5]}', 422, ["rotation", "<= 3.14159 rad"]),
+    "duration_zero": ('{"type": "ptwl", "duration": 0}', 422, ["duration", "(0, 600] s"]),
+    "duration_negative": ('{"type": "rwe", "duration": -2}', 422, ["duration", "(0, 600] s"]),
+    "duration_over_600": ('{"type": "dither", "duration": 601}', 422, ["duration", "(0, 600] s"]),
+    "watchdog_shorter_than_duration": (
+        '{"type": "ptwl", "duration": 5, "watchdog": 2}',
+        422,
+        ["watchdog (2 s) must be >= duration (5 s)"],
+    ),
+    "force_threshold_zero": ('{"type": "ptwl", "force_threshold": 0}', 422, ["force_threshold", "(0, inf)"]),
+    "torque_threshold_negative": (
+        '{"type": "dither", "torque_threshold": -1}',
+        422,
+        ["torque_threshold", "(0, inf)"],
+    ),
+    "damping_zero": (
+        '{"type": "ptwl", "stiffness": [100,100,100,10,10,10], "damping": [1000,0,1000,50,50,50]}',
+        422,
+        ["damping[1] (y) must be > 0 N s/m"],
+    ),
+    "stiffness_negative": (
+        '{"type": "ptwl", "stiffness": [100,100,-5,10,10,10], "damping": [1000,1000,1000,50,50,50]}',
+        422,
+        ["stiffness[2] (z) must be in [0, 20000] N/m"],
+    ),
+    "unstable_gains": (
+        '{"type": "ptwl", "stiffness": [100,100,100,10,10,10], "damping": [200,1000,1000,50,50,50]}',
+        422,
+        ["damping[0] (x) must be in [800, 50000] N s/m", "stable"],
+    ),
+    "unknown_stiffness_preset": (
+        '{"type": "ptwl", "preset": "bouncy"}',
+        422,
+        ["unknown stiffness preset 'bouncy'", "hinge, medium, planar, soft, stiff"],
+    ),
+    "unknown_dither_preset": (
+        '{"type": "dither", "preset": "shake"}',
+        422,
+        ["unknown dither preset 'shake'"],
+    ),
+    "wrong_type": ('{"type": "jump"}', 422, ["'ptwl', 'rwe', 'dither'", "type"]),
+    "missing_type": ('{"duration": 1}', 422, ["type"]),
+    "malformed_json": ('{"type": "ptwl", "duration": ', 422, ["malformed JSON"]),
+    "unknown_field": ('{"type": "ptwl", "translaton": [0, 0, 0.01]}', 422, ["translaton", "Extra inputs"]),
+    "body_over_64_kib": ('{"type": "ptwl", "pad": "' + "x" * 70_000 + '"}', 413, ["65536 byte limit"]),
+}
+
+
+@pytest.fixture
+def busy(robot: RobotClient) -> Iterator[tuple[RobotClient, int, int]]:
+    """One long command running and one queued behind it."""
+    running = robot.ptwl(translation=[0.0, 0.0, -0.05], duration=60.0).id
+    queued = robot.ptwl(translation=[0.0, 0.0, -0.01], duration=1.0).id
+    time.sleep(0.1)
+    assert robot.get(running).status == "running"
+    yield robot, running, queued
+    robot.stop()
+
+
+def assert_nothing_lost(robot: RobotClient, running: int, queued: int, sim_time_before: float) -> None:
+    time.sleep(0.2)
+    health = robot.health()
+    assert health.status == "ok" and health.sim_time > sim_time_before + 0.1  # still advancing
+    assert health.queued == 1
+    assert robot.get(running).status == "running" and robot.get(queued).status == "queued"
+    robot.stop()
+    done = robot.run("ptwl", translation=[0.0, 0.0, -0.01], duration=0.3, timeout=10)
+    assert done.exit == "goal_reached"
+
+
+@pytest.mark.parametrize("case", list(BAD_COMMANDS))
+def test_bad_command_is_refused_and_nothing_is_lost(
+    case: str, busy: tuple[RobotClient, int, int], server: ServerProcess
+) -> None:
+    robot, running, queued = busy
+    body, status, fragments = BAD_COMMANDS[case]
+    before = robot.health().sim_time
+    response = httpx.post(
+        server.url + "/api/commands", content=body.encode(), headers={"content-type": "application/json"}
+    )
+    assert response.status_code == status, response.text
+    detail = response.json()["detail"]
+    for fragment in fragments:
+        assert fragment in detail, detail
+    assert_nothing_lost(robot, running, queued, before)
+
+
+def test_unknown_scene_lists_the_valid_ones(
+    busy: tuple[RobotClient, int, int], server: ServerProcess
+) -> None:
+    robot, running, queued = busy
+    before = robot.health().sim_time
+    response = httpx.post(server.url + "/api/scene", json={"name": "moon"})
+    assert response.status_code == 422
+    assert response.json()["detail"] == "unknown scene 'moon'; valid: free_space, sleeve_on_peg, surface"
+    assert_nothing_lost(robot, running, queued, before)
+
+
+def test_bad_long_poll_wait(busy: tuple[RobotClient, int, int], server: ServerProcess) -> None:
+    robot, running, queued = busy
+    before = robot.health().sim_time
+    response = httpx.get(f"{server.url}/api/commands/{running}", params={"wait": 100})
+    assert response.status_code == 422 and "wait" in response.json()["detail"]
+    assert_nothing_lost(robot, running, queued, before)
+
+
+def test_queue_is_bounded_with_429(robot: RobotClient, server: ServerProcess) -> None:
+    running = robot.ptwl(translation=[0.0, 0.0, -0.05], duration=60.0).id
+    ids = [robot.ptwl(translation=[0.0, 0.0, -0.01], duration=1.0).id for _ in range(64)]
+    response = httpx.post(server.url + "/api/commands", json={"type": "rwe"})
+    assert response.status_code == 429
+    assert "queue is full (64 queued)" in response.json()["detail"]
+    assert robot.health().queued == 64 and robot.get(running).status == "running"
+    result = robot.stop()
+    assert result.aborted == running and sorted(result.dropped) == ids
+    assert robot.run("rwe", duration=0.2, timeout=10).exit == "completed"

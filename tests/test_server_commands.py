@@ -1,0 +1,170 @@
+"""Commands through a real uvicorn server: exits, order, long-poll, stop, scenes, task, OpenAPI."""
+
+import itertools
+import subprocess
+import sys
+import threading
+import time
+
+import httpx
+import numpy as np
+import pytest
+
+from server.client import RobotClient, RobotError
+
+GAP_TO_PLATE = 0.0466 - 0.008  # [m] as in tests/test_ptwl.py
+
+
+def collect_telemetry(robot: RobotClient, seconds: float) -> tuple[list[dict], threading.Thread]:
+    messages: list[dict] = []
+
+    def read() -> None:
+        end = time.monotonic() + seconds
+        for message in robot.telemetry():
+            messages.append(message)
+            if time.monotonic() > end:
+                return
+
+    thread = threading.Thread(target=read, daemon=True)
+    thread.start()
+    time.sleep(0.3)  # connected and receiving
+    return messages, thread
+
+
+def test_ptwl_in_free_space_reaches_goal_and_telemetry_shows_the_port_following(robot: RobotClient) -> None:
+    messages, reader = collect_telemetry(robot, seconds=3.5)
+    start = np.array(robot.state().port.position)
+    done = robot.run("ptwl", translation=[0.0, 0.0, -0.04], duration=1.5, timeout=10)
+    reader.join(10)
+    assert done.exit == "goal_reached"
+    states = [m for m in messages if m["type"] == "state" and m["active_command"] == done.id]
+    assert len(states) > 50
+    port_z = np.array([s["port"]["position"][2] for s in states])
+    attractor_z = np.array([s["attractor"]["position"][2] for s in states])
+    # Tool z points down, so -0.04 in the tool frame is up. The attractor leads, the port follows.
+    assert attractor_z[-1] == pytest.approx(start[2] + 0.04, abs=1e-4)
+    assert port_z[-1] == pytest.approx(start[2] + 0.04, abs=0.003)  # last message before the exit
+    assert done.final_port is not None
+    assert done.final_port.position[2] == pytest.approx(start[2] + 0.04, abs=0.002)  # the tolerance
+    assert np.all(np.diff(port_z) > -1e-5)  # monotonic: a first-order lag, no overshoot
+    assert np.all(attractor_z[: len(attractor_z) // 2] >= port_z[: len(port_z) // 2] - 1e-6)
+    events = [m for m in messages if m["type"] == "command" and m["id"] == done.id]
+    assert [e["status"] for e in events] == ["queued", "running", "done"]
+    assert events[-1]["exit"] == "goal_reached"
+
+
+def test_ptwl_into_the_surface_breaches_near_the_threshold(robot: RobotClient) -> None:
+    robot.reset_scene("surface")
+    done = robot.run(
+        "ptwl", translation=[0, 0, GAP_TO_PLATE + 0.04], duration=8.0, force_threshold=15.0, timeout=20
+    )
+    assert done.exit == "wrench_breach"
+    assert done.peak_force == pytest.approx(15.0, rel=0.1)
+    assert done.final_wrench is not None and done.final_wrench[2] > 10.0
+    assert robot.task().scene == "surface"
+
+
+def test_stop_aborts_the_running_command_and_drops_the_queue(robot: RobotClient) -> None:
+    first = robot.ptwl(translation=[0.05, 0, 0], duration=5.0)
+    queued = [robot.ptwl(translation=[0.0, 0.01, 0], duration=1.0) for _ in range(3)]
+    time.sleep(0.5)
+    result = robot.stop()
+    assert result.aborted == first.id
+    assert sorted(result.dropped) == [q.id for q in queued]
+    assert robot.get(first.id).exit == "aborted"
+    assert all(robot.get(q.id).exit == "aborted" and robot.get(q.id).started_at is None for q in queued)
+    held = np.array(robot.state().port.position)
+    time.sleep(1.0)
+    assert np.linalg.norm(np.array(robot.state().port.position) - held) < 0.003  # holds where it is
+    assert robot.health().queued == 0
+
+
+def test_commands_run_in_order_one_at_a_time(robot: RobotClient) -> None:
+    ids = [robot.ptwl(translation=[0.0, 0.0, -0.005 * (i + 1)], duration=0.3).id for i in range(4)]
+    finished = [robot.wait(i, timeout=20) for i in ids]
+    assert all(f.exit == "goal_reached" for f in finished)
+    for before, after in itertools.pairwise(finished):
+        assert before.ended_at is not None and after.started_at is not None
+        assert after.started_at >= before.ended_at
+    listed = [c.id for c in robot.commands(limit=4)]
+    assert listed == ids  # newest last
+
+
+def test_long_poll_answers_when_done_and_times_out_otherwise(robot: RobotClient) -> None:
+    cmd = robot.ptwl(translation=[0.0, 0.0, -0.01], duration=0.5)
+    t0 = time.monotonic()
+    status = robot.get(cmd.id, wait=0.1)
+    assert status.status == "running" and time.monotonic() - t0 >= 0.1
+    done = robot.get(cmd.id, wait=20.0)
+    assert done.status == "done" and time.monotonic() - t0 < 5.0
+    with pytest.raises(RobotError) as err:
+        robot.get(10**6)
+    assert err.value.status_code == 404
+
+
+def test_watchdog_ends_a_command_nobody_asks_about(robot: RobotClient) -> None:
+    robot.reset_scene("surface")
+    # Behind the plate, under the threshold: only the watchdog can end it.
+    cmd = robot.ptwl(
+        translation=[0, 0, GAP_TO_PLATE + 0.004], duration=0.5, force_threshold=50.0, watchdog=1.5
+    )
+    time.sleep(2.5)
+    status = robot.get(cmd.id)
+    assert status.status == "done" and status.exit == "timeout"
+    assert status.duration == pytest.approx(1.5, abs=0.01)
+
+
+def test_scene_reset_with_seed_and_task(robot: RobotClient) -> None:
+    robot.reset_scene("sleeve_on_peg", seed=4)
+    task = robot.task()
+    assert task.scene == "sleeve_on_peg" and not task.success
+    assert task.progress == pytest.approx(-0.0206, abs=0.003)
+    assert robot.state().scene == "sleeve_on_peg"
+    assert {s.name for s in robot.scenes()} == {"free_space", "surface", "sleeve_on_peg"}
+
+
+def test_presets_by_name(robot: RobotClient) -> None:
+    presets = robot.presets()
+    assert presets["medium"]["stiffness"] == [2000, 2000, 2000, 100, 100, 100]
+    assert set(presets["dither"]) == {
+        "torsional_push",
+        "torsional_pull",
+        "translational_push",
+        "translational_pull",
+    }
+    done = robot.run("ptwl", translation=[0, 0, -0.01], preset="stiff", timeout=10)
+    assert done.exit == "goal_reached" and done.params["preset"] == "stiff"
+    done = robot.run("dither", preset="translational_pull", travel=0.005, timeout=20)
+    assert done.exit == "goal_reached" and done.params["mode"] == "translational"
+
+
+def test_openapi_documents_every_parameter_with_units(server) -> None:  # type: ignore[no-untyped-def]
+    spec = httpx.get(server.url + "/openapi.json").json()
+    schemas = spec["components"]["schemas"]
+    for name in (
+        "PtwlParams",
+        "RweParams",
+        "DitherParams",
+        "CommandStatus",
+        "RobotStateModel",
+        "HealthModel",
+    ):
+        for field, prop in schemas[name]["properties"].items():
+            assert prop.get("description"), f"{name}.{field} has no description"
+    assert "[s]" in schemas["PtwlParams"]["properties"]["duration"]["description"]
+    assert "[N]" in schemas["PtwlParams"]["properties"]["force_threshold"]["description"]
+    assert httpx.get(server.url + "/docs").status_code == 200
+
+
+def test_readme_example_script_drives_a_ptwl_rwe_sequence(server) -> None:  # type: ignore[no-untyped-def]
+    result = subprocess.run(
+        [sys.executable, "-m", "experiments.press_and_relieve", "--url", server.url],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[0].startswith("press") and "wrench_breach" in lines[0]
+    assert lines[1].startswith("relieve") and "completed" in lines[1]
+    assert lines[2].startswith("back off") and "goal_reached" in lines[2]

@@ -1,0 +1,59 @@
+"""Lifecycle: real-time pacing, clean shutdown that frees the port, faults that do not kill it."""
+
+import signal
+import socket
+import time
+
+import httpx
+import pytest
+
+from server.client import RobotClient
+from server.launcher import ServerProcess, running_server
+
+
+def test_sim_time_follows_wall_time_within_2_percent_over_10_s(server: ServerProcess) -> None:
+    with RobotClient(server.url) as robot:
+        robot.reset_scene("surface")
+        robot.ptwl(translation=[0.0, 0.0, 0.0486], duration=2.0, force_threshold=100.0, watchdog=60.0)
+        t0, sim0 = time.monotonic(), robot.health().sim_time
+        time.sleep(10.0)
+        t1, sim1 = time.monotonic(), robot.health().sim_time
+        robot.stop()
+    assert (sim1 - sim0) / (t1 - t0) == pytest.approx(1.0, rel=0.02)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_clean_shutdown_frees_the_port(sig: int) -> None:
+    with running_server("--scene", "free_space") as srv:
+        port = srv.port
+        assert srv.stop(sig) == 0
+        assert "ptwl serve: stopped" in "".join(srv.output)
+    probe = socket.socket()
+    try:
+        probe.bind(("127.0.0.1", port))  # free again
+    finally:
+        probe.close()
+    with pytest.raises(httpx.TransportError):
+        httpx.get(f"http://127.0.0.1:{port}/api/health", timeout=1.0)
+
+
+def test_a_simulation_fault_ends_the_command_fault_and_the_server_keeps_serving(
+    server: ServerProcess,
+) -> None:
+    with RobotClient(server.url) as robot:
+        robot.reset_scene("free_space")
+        faults_before = robot.health().faults
+        cmd = robot.ptwl(translation=[0.05, 0.0, 0.0], duration=5.0)
+        time.sleep(0.3)
+        httpx.post(server.url + "/api/_debug/fault").raise_for_status()
+        status = robot.wait(cmd.id, timeout=5.0)
+        assert status.exit == "fault"
+        assert "unstable" in status.detail
+        health = robot.health()
+        assert health.faults == faults_before + 1 and health.last_fault and "BADQVEL" in health.last_fault
+        state = robot.state()
+        assert state.faults == faults_before + 1
+        assert state.joint_positions == pytest.approx([0.0, 0.3, 0.2, 0.0, 1.0708, 0.0], abs=0.01)  # home
+        assert (
+            robot.run("ptwl", translation=[0.0, 0.0, -0.01], duration=0.3, timeout=10).exit == "goal_reached"
+        )

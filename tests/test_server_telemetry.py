@@ -1,0 +1,90 @@
+"""Telemetry: rate with 1 and 10 clients, sequence numbers, sent_at, slow clients."""
+
+import asyncio
+import itertools
+import json
+import time
+
+import pytest
+import websockets
+
+from server.launcher import ServerProcess
+from server.telemetry import CLIENT_BACKLOG, Broadcaster
+
+WINDOW_S = 3.0
+
+
+async def receive_states(url: str, seconds: float) -> list[tuple[float, dict]]:
+    """(arrival wall time, message) of state messages over `seconds`, after a 0.5 s warm-up."""
+    out: list[tuple[float, dict]] = []
+    async with websockets.connect(url, ping_interval=None) as ws:
+        warm_until = time.monotonic() + 0.5
+        end = warm_until + seconds
+        while time.monotonic() < end:
+            message = json.loads(await asyncio.wait_for(ws.recv(), 2.0))
+            if message["type"] == "state" and time.monotonic() >= warm_until:
+                out.append((time.time(), message))
+    return out
+
+
+def ws_url(server: ServerProcess) -> str:
+    return server.url.replace("http://", "ws://") + "/api/telemetry"
+
+
+@pytest.mark.parametrize("clients", [1, 10])
+def test_rate_within_10_percent_and_sequence_increments_by_one(server: ServerProcess, clients: int) -> None:
+    async def main() -> list[list[tuple[float, dict]]]:
+        return await asyncio.gather(*(receive_states(ws_url(server), WINDOW_S) for _ in range(clients)))
+
+    for states in asyncio.run(main()):
+        arrivals = [t for t, _ in states]
+        rate = (len(arrivals) - 1) / (arrivals[-1] - arrivals[0])
+        assert rate == pytest.approx(50.0, rel=0.10)
+        seqs = [m["seq"] for _, m in states]
+        assert all(b - a == 1 for a, b in itertools.pairwise(seqs))
+        sim_times = [m["sim_time"] for _, m in states]
+        assert all(b > a for a, b in itertools.pairwise(sim_times))
+        # sent_at is the server's wall clock as the message left: ~now on loopback.
+        ages = [t - m["sent_at"] for t, m in states]
+        assert max(ages) < 0.05 and min(ages) > -0.01
+        first = states[0][1]
+        assert {"port", "attractor", "wrench", "joint_positions", "active_command", "scene"} <= set(first)
+
+
+def test_a_client_that_stops_reading_slows_neither_the_sim_nor_the_others(server: ServerProcess) -> None:
+    async def main() -> tuple[list[tuple[float, dict]], float]:
+        stalled = await websockets.connect(ws_url(server), ping_interval=None, max_queue=1)
+        try:
+            await asyncio.sleep(0.2)  # never reads again
+            t0, sim0 = time.monotonic(), json.loads(await _health(server))["sim_time"]
+            states = await receive_states(ws_url(server), WINDOW_S)
+            t1, sim1 = time.monotonic(), json.loads(await _health(server))["sim_time"]
+            return states, (sim1 - sim0) / (t1 - t0)
+        finally:
+            await stalled.close()
+
+    states, sim_rate = asyncio.run(main())
+    arrivals = [t for t, _ in states]
+    assert (len(arrivals) - 1) / (arrivals[-1] - arrivals[0]) == pytest.approx(50.0, rel=0.10)
+    assert sim_rate == pytest.approx(1.0, rel=0.05)
+
+
+async def _health(server: ServerProcess) -> str:
+    import httpx
+
+    async with httpx.AsyncClient() as client:
+        return (await client.get(server.url + "/api/health")).text
+
+
+def test_broadcaster_drops_a_client_that_falls_behind() -> None:
+    async def main() -> None:
+        broadcaster = Broadcaster()
+        slow, fast = broadcaster.subscribe(), broadcaster.subscribe()
+        for i in range(CLIENT_BACKLOG + 5):
+            broadcaster.publish(f'{{"seq": {i}}}')
+            fast.queue.get_nowait()  # keeps up
+        assert slow.too_slow and not fast.too_slow
+        assert broadcaster.dropped_clients == 1
+        assert slow.queue.qsize() == CLIENT_BACKLOG  # nothing more was queued for it
+
+    asyncio.run(main())
