@@ -8,6 +8,7 @@ Prints each command's exit condition and forces, as the paper's tables count the
 
 import argparse
 import os
+from typing import Any
 
 from server.client import RobotClient
 
@@ -21,7 +22,7 @@ def main() -> None:
     args = parser.parse_args()
     with RobotClient(args.url, token=args.token) as robot:
         robot.reset_scene("surface")
-        steps = [
+        steps: list[tuple[str, str, dict[str, Any]]] = [
             # 40 mm past the plate at ~10 mm/s: the 15 N limit ends it.
             (
                 "press",
