@@ -14,6 +14,7 @@ import os
 import signal
 import sys
 from collections.abc import Iterator
+from pathlib import Path
 
 from robot_sim.behaviors.base import Behavior, BehaviorReport
 from robot_sim.behaviors.dither import Dither
@@ -103,6 +104,25 @@ def cmd_serve(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_proxy(args: argparse.Namespace) -> int:
+    # Imported here: the link depends on nothing of ours, and only this command needs it.
+    from latency.serve import ProxyConfig, serve_proxy
+
+    serve_proxy(
+        ProxyConfig(
+            upstream=args.upstream,
+            host=args.host,
+            port=args.port,
+            profile=args.profile,
+            uplink=args.uplink,
+            downlink=args.downlink,
+            record=args.record,
+            token=args.token or None,
+        )
+    )
+    return 0
+
+
 def cmd_scenes(_: argparse.Namespace) -> int:
     for name, scene in SCENES.items():
         print(f"{name:15s} {scene.description}")
@@ -137,6 +157,16 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--token", default=os.environ.get("PTWL_TOKEN"), help="access token (or PTWL_TOKEN)")
     serve.add_argument("--fault-injection", action="store_true", help=argparse.SUPPRESS)
     serve.set_defaults(func=cmd_serve)
+    proxy = sub.add_parser("proxy", help="run the delay-line link between operator and robot")
+    proxy.add_argument("--upstream", default="http://127.0.0.1:8000", help="the robot server")
+    proxy.add_argument("--host", default="127.0.0.1")
+    proxy.add_argument("--port", type=int, default=8001, help="0 picks a free port (printed)")
+    proxy.add_argument("--profile", help="a named profile from config/links.toml")
+    proxy.add_argument("--uplink", type=float, help="[s] one-way delay, operator to robot")
+    proxy.add_argument("--downlink", type=float, help="[s] one-way delay, robot to operator")
+    proxy.add_argument("--record", type=Path, help="append a JSON line per message to this file")
+    proxy.add_argument("--token", default=os.environ.get("PTWL_TOKEN"), help="guards /_link (or PTWL_TOKEN)")
+    proxy.set_defaults(func=cmd_proxy)
     sub.add_parser("scenes", help="list scenes").set_defaults(func=cmd_scenes)
     sub.add_parser("presets", help="print stiffness and dither presets").set_defaults(func=cmd_presets)
     return parser
@@ -146,7 +176,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args))
-    except (RobotSimError, ConfigError, OSError) as err:
+    except (RobotSimError, ConfigError, OSError, ValueError) as err:
         print(f"ptwl: {err}", file=sys.stderr)
         return 2
 

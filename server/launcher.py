@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import httpx
 
-URL_PATTERN = re.compile(r"robot server on (http://\S+)")
+URL_PATTERN = re.compile(r" on (http://\S+)")
 
 
 @dataclass
@@ -33,9 +33,28 @@ class ServerProcess:
 
 
 @contextmanager
-def running_server(*args: str, startup_timeout: float = 30.0) -> Iterator[ServerProcess]:
-    """Start `ptwl serve --port 0 ARGS`, wait until healthy, stop it with SIGINT afterwards."""
-    cmd = [sys.executable, "-m", "server.cli", "serve", "--port", "0", *args]
+def running_server(*args: str, port: int = 0, startup_timeout: float = 30.0) -> Iterator[ServerProcess]:
+    """Start `ptwl serve --port PORT ARGS` (0: any free port), wait until healthy, SIGINT it after."""
+    with running(
+        "serve", "--port", str(port), *args, health="/api/health", startup_timeout=startup_timeout
+    ) as p:
+        yield p
+
+
+@contextmanager
+def running_proxy(
+    upstream: str, *args: str, port: int = 0, startup_timeout: float = 30.0
+) -> Iterator[ServerProcess]:
+    """Start `ptwl proxy --upstream URL --port PORT ARGS`, wait until it answers, SIGINT it after."""
+    cmd = ("proxy", "--upstream", upstream, "--port", str(port), *args)
+    with running(*cmd, health="/_link/profile", startup_timeout=startup_timeout) as p:
+        yield p
+
+
+@contextmanager
+def running(*ptwl_args: str, health: str, startup_timeout: float = 30.0) -> Iterator[ServerProcess]:
+    """Start `ptwl ARGS`, read the URL it prints, wait until `health` answers."""
+    cmd = [sys.executable, "-m", "server.cli", *ptwl_args]
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     process = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
     output: list[str] = []
@@ -59,7 +78,8 @@ def running_server(*args: str, startup_timeout: float = 30.0) -> Iterator[Server
         deadline = time.monotonic() + startup_timeout
         while True:
             try:
-                if httpx.get(server.url + "/api/health", timeout=2.0).status_code == 200:
+                # Answering at all is up: a token-guarded path says 401.
+                if httpx.get(server.url + health, timeout=2.0).status_code < 500:
                     break
             except httpx.TransportError:
                 pass

@@ -1,0 +1,101 @@
+"""The link: two delay lines under one versioned profile, with stats and an optional record.
+
+Changing the profile is atomic (one assignment of a new (profile, version, models) tuple) and
+versioned; a message keeps the delay it was given on arrival, and its record names the version.
+"""
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from latency.delay_line import DIRECTIONS, DelayLine, DirectionModel, Dropped, Entry
+from latency.profile import LinkProfile
+from latency.record import Recorder
+from latency.stats import DirectionStats
+
+
+@dataclass(frozen=True)
+class _Active:
+    profile: LinkProfile
+    version: int
+    activated_at: float
+    models: dict[str, DirectionModel]
+
+
+class Link:
+    def __init__(
+        self,
+        profile: LinkProfile,
+        clock: Callable[[], float] = time.monotonic,
+        recorder: Recorder | None = None,
+    ) -> None:
+        self.clock = clock
+        self.lines = {d: DelayLine(d) for d in DIRECTIONS}
+        self.stats = {d: DirectionStats() for d in DIRECTIONS}
+        self.recorder = recorder
+        self._active = self._activate(profile, 1)
+
+    # ------------------------------------------------------------------ profile
+    def _activate(self, profile: LinkProfile, version: int) -> _Active:
+        now = self.clock()
+        models = {d: DirectionModel(profile, d, version, now) for d in DIRECTIONS}
+        return _Active(profile, version, now, models)
+
+    @property
+    def profile(self) -> LinkProfile:
+        return self._active.profile
+
+    @property
+    def version(self) -> int:
+        return self._active.version
+
+    def set_profile(self, profile: LinkProfile) -> int:
+        """Take a new profile for messages arriving from now on; returns its version."""
+        self._active = self._activate(profile, self._active.version + 1)
+        return self._active.version
+
+    def profile_view(self) -> dict[str, Any]:
+        active = self._active
+        return {"version": active.version, **active.profile.model_dump()}
+
+    # ----------------------------------------------------------------- messages
+    def admit(
+        self,
+        direction: str,
+        size: int,
+        kind: str,
+        deliver: Callable[[], object] | None = None,
+        lossy: bool = True,
+    ) -> Entry | Dropped:
+        active = self._active
+        outcome = self.lines[direction].admit(
+            self.clock(), active.models[direction], size, kind, deliver, lossy
+        )
+        self.stats[direction].on_admit(outcome)
+        if isinstance(outcome, Dropped) and self.recorder is not None:
+            self.recorder.dropped(outcome)
+        return outcome
+
+    def release_due(self, direction: str) -> list[Entry]:
+        """Pop what is due now, account for it, and hand each entry to its deliver callback."""
+        now = self.clock()
+        due = self.lines[direction].pop_due(now)
+        stats = self.stats[direction]
+        reorder = self._active.profile.reorder
+        for entry in due:
+            stats.on_release(entry, now, reorder)
+            if self.recorder is not None:
+                self.recorder.released(entry, now)
+            if entry.deliver is not None:
+                entry.deliver()
+        return due
+
+    def next_release(self, direction: str) -> float | None:
+        return self.lines[direction].next_release()
+
+    def stats_view(self) -> dict[str, Any]:
+        return {
+            "profile_version": self._active.version,
+            **{d: self.stats[d].snapshot(self.lines[d]) for d in DIRECTIONS},
+        }

@@ -1,0 +1,299 @@
+"""The delay-line proxy: HTTP and WebSocket between operator and robot, delayed per message.
+
+- HTTP: the request is held for the uplink delay, then forwarded (the upstream connection is
+  opened only then: uvicorn drops idle keep-alives after 5 s, so we keep none longer than 2 s),
+  and the response is held for the downlink delay. The upstream client is aiohttp: on loopback
+  it costs ~0.6 ms a request against httpx's ~1.1 ms, and the proxy's budget is 1 ms. HTTP
+  rides a reliable channel (TCP would retransmit): loss does not apply to it; a `drop`
+  blackout answers 503.
+- WebSocket: terminated on both sides; each data message is delayed in its direction and may be
+  lost. Ping/pong is answered per hop, undelayed: with multi-second delays a delayed pong would
+  trip the 20 s keepalive of websockets/uvicorn and kill healthy connections. Whether the robot
+  is alive is judged end to end from the telemetry's age (`sent_at`), not from pings.
+- `/_link/...` is the control API: local, never delayed, never forwarded.
+"""
+
+import asyncio
+import contextlib
+import hmac
+from collections.abc import AsyncIterator, Callable
+from contextlib import asynccontextmanager
+from typing import Any
+
+import aiohttp
+import websockets
+from pydantic import ValidationError
+from starlette.applications import Starlette
+from starlette.requests import Request
+from starlette.responses import JSONResponse, Response
+from starlette.routing import Route, WebSocketRoute
+from starlette.websockets import WebSocket, WebSocketDisconnect
+
+from latency.clock import RealTimeDriver
+from latency.delay_line import Dropped
+from latency.link import Link
+
+HOP_BY_HOP = {
+    "connection",
+    "keep-alive",
+    "proxy-authenticate",
+    "proxy-authorization",
+    "te",
+    "trailer",
+    "trailers",
+    "transfer-encoding",
+    "upgrade",
+    "host",
+    "content-length",
+    "content-encoding",
+}
+KEEPALIVE_EXPIRY_S = 2.0  # below uvicorn's 5 s idle timeout: never reuse a connection it dropped
+UPSTREAM_TIMEOUT_S = 90.0  # long-polls wait up to 60 s upstream
+IDEMPOTENT = {"GET", "HEAD", "OPTIONS", "PUT", "DELETE"}  # safe to retry on a dropped connection
+CLOSE_UPSTREAM_LOST = 1012  # "service restart": reconnect
+_CLOSE = object()
+
+
+def _forward_headers(headers: Any) -> dict[str, str]:
+    return {k: v for k, v in headers.items() if k.lower() not in HOP_BY_HOP}
+
+
+def _problems(err: ValidationError) -> str:
+    """`field: message; ...` for a profile update that does not validate."""
+    parts = []
+    for e in err.errors():
+        where = ".".join(str(p) for p in e["loc"]) or "body"
+        parts.append(f"{where}: {str(e['msg']).removeprefix('Value error, ')}")
+    return "; ".join(parts)
+
+
+def _released(loop: asyncio.AbstractEventLoop) -> tuple["asyncio.Future[None]", Callable[[], None]]:
+    future: asyncio.Future[None] = loop.create_future()
+
+    def deliver() -> None:
+        if not future.done():  # the client may have gone away meanwhile
+            future.set_result(None)
+
+    return future, deliver
+
+
+class LinkProxy:
+    def __init__(self, upstream: str, link: Link, token: str | None = None) -> None:
+        self.upstream = upstream.rstrip("/")
+        self.ws_upstream = self.upstream.replace("http://", "ws://", 1).replace("https://", "wss://", 1)
+        self.link = link
+        self.token = token
+        self.driver: RealTimeDriver | None = None
+        self.http: aiohttp.ClientSession | None = None
+
+    # ---------------------------------------------------------------- lifecycle
+    @asynccontextmanager
+    async def lifespan(self, app: Starlette) -> AsyncIterator[None]:
+        self.driver = RealTimeDriver(self.link)
+        self.driver.start()
+        self.http = aiohttp.ClientSession(
+            self.upstream,
+            timeout=aiohttp.ClientTimeout(total=UPSTREAM_TIMEOUT_S, sock_connect=5.0),
+            connector=aiohttp.TCPConnector(keepalive_timeout=KEEPALIVE_EXPIRY_S),
+            auto_decompress=False,
+            skip_auto_headers=("User-Agent", "Accept-Encoding"),
+        )
+        try:
+            yield
+        finally:
+            await self.http.close()
+            await self.driver.stop()
+            if self.link.recorder is not None:
+                self.link.recorder.close()
+
+    def app(self) -> Starlette:
+        methods = ["GET", "POST", "PUT", "PATCH", "DELETE", "HEAD", "OPTIONS"]
+        return Starlette(
+            routes=[
+                Route("/_link/profile", self.profile, methods=["GET", "PUT"]),
+                Route("/_link/stats", self.stats, methods=["GET"]),
+                WebSocketRoute("/{path:path}", self.relay_websocket),
+                Route("/{path:path}", self.forward_http, methods=methods),
+            ],
+            lifespan=self.lifespan,
+        )
+
+    # -------------------------------------------------------------- control API
+    def _authorized(self, request: Request) -> Response | None:
+        if self.token is None:
+            return None
+        header = request.headers.get("authorization", "")
+        if not header.lower().startswith("bearer "):
+            return JSONResponse({"detail": "missing access token: send Authorization: Bearer <token>"}, 401)
+        if not hmac.compare_digest(header[7:].strip().encode(), self.token.encode()):
+            return JSONResponse({"detail": "access token rejected"}, 403)
+        return None
+
+    async def profile(self, request: Request) -> Response:
+        if (denied := self._authorized(request)) is not None:
+            return denied
+        if request.method == "PUT":
+            try:
+                update = await request.json()
+            except ValueError as err:
+                return JSONResponse({"detail": f"malformed JSON: {err}"}, 422)
+            if not isinstance(update, dict):
+                return JSONResponse({"detail": "body must be a JSON object of profile fields"}, 422)
+            try:
+                profile = self.link.profile.merged(update)
+            except ValidationError as err:
+                return JSONResponse({"detail": _problems(err)}, 422)
+            self.link.set_profile(profile)
+        return JSONResponse(self.link.profile_view())
+
+    async def stats(self, request: Request) -> Response:
+        if (denied := self._authorized(request)) is not None:
+            return denied
+        return JSONResponse(self.link.stats_view())
+
+    # --------------------------------------------------------------------- HTTP
+    async def _through(self, direction: str, size: int, kind: str) -> Dropped | None:
+        """Hold the caller until the link releases its message (None), or say why it was dropped."""
+        future, deliver = _released(asyncio.get_running_loop())
+        outcome = self.link.admit(direction, size, kind, deliver, lossy=False)
+        if isinstance(outcome, Dropped):
+            return outcome
+        self._release_or_schedule(direction)
+        await future
+        return None
+
+    def _release_or_schedule(self, direction: str) -> None:
+        """Release what is already due (at zero delay: this message, without a task switch),
+        else wake the driver to time it."""
+        assert self.driver is not None
+        due_at = self.link.next_release(direction)
+        if due_at is not None and due_at <= self.link.clock():
+            self.link.release_due(direction)
+        self.driver.notify(direction)
+
+    async def forward_http(self, request: Request) -> Response:
+        assert self.http is not None
+        body = await request.body()
+        head = sum(len(k) + len(v) for k, v in request.headers.items())
+        dropped = await self._through("uplink", len(body) + head, "http_request")
+        if dropped is not None:
+            return JSONResponse({"detail": f"link dropped the request ({dropped.reason})"}, 503)
+        target = request.url.path + (f"?{request.url.query}" if request.url.query else "")
+        try:
+            status, headers, content = await self._upstream_request(request, target, body)
+        except (aiohttp.ClientError, OSError, TimeoutError) as err:
+            status, headers = 502, {"content-type": "application/json"}
+            detail = f"upstream {self.upstream} unreachable: {type(err).__name__}: {err}".rstrip(": ")
+            content = bytes(JSONResponse({"detail": detail}).body)
+        dropped = await self._through("downlink", len(content), "http_response")
+        if dropped is not None:
+            return JSONResponse({"detail": f"link dropped the response ({dropped.reason})"}, 504)
+        return Response(content, status_code=status, headers=headers)
+
+    async def _upstream_request(
+        self, request: Request, target: str, body: bytes
+    ) -> tuple[int, dict[str, str], bytes]:
+        assert self.http is not None
+        attempts = 2 if request.method in IDEMPOTENT else 1
+        for attempt in range(attempts):
+            try:
+                async with self.http.request(
+                    request.method,
+                    target,
+                    headers=_forward_headers(request.headers),
+                    data=body,
+                    allow_redirects=False,
+                ) as upstream:
+                    return upstream.status, _forward_headers(upstream.headers), await upstream.read()
+            except aiohttp.ServerDisconnectedError:
+                # A pooled connection the upstream had closed (e.g. it restarted): try a fresh one.
+                if attempt + 1 == attempts:
+                    raise
+        raise AssertionError("unreachable")
+
+    # ---------------------------------------------------------------- WebSocket
+    async def relay_websocket(self, ws: WebSocket) -> None:
+        target = self.ws_upstream + ws.url.path + (f"?{ws.url.query}" if ws.url.query else "")
+        auth = ws.headers.get("authorization")
+        try:
+            upstream = await websockets.connect(
+                target,
+                additional_headers={"Authorization": auth} if auth else None,
+                open_timeout=10.0,
+                max_size=None,
+            )
+        except websockets.InvalidStatus as err:
+            await ws.send_denial_response(
+                Response(err.response.body or b"", status_code=err.response.status_code)
+            )
+            return
+        except (OSError, TimeoutError, websockets.WebSocketException) as err:
+            detail = f"upstream {self.upstream} unavailable: {type(err).__name__}"
+            await ws.send_denial_response(JSONResponse({"detail": detail}, 502))
+            return
+        await ws.accept()
+        to_client: asyncio.Queue[Any] = asyncio.Queue()
+        to_upstream: asyncio.Queue[Any] = asyncio.Queue()
+        tasks = [
+            asyncio.create_task(self._client_to_link(ws, to_upstream)),
+            asyncio.create_task(self._link_to_upstream(upstream, to_upstream)),
+            asyncio.create_task(self._upstream_to_link(upstream, to_client)),
+            asyncio.create_task(self._link_to_client(ws, to_client)),
+        ]
+        try:
+            await asyncio.wait([tasks[0], tasks[3]], return_when=asyncio.FIRST_COMPLETED)
+        finally:
+            for task in tasks:
+                task.cancel()
+            await asyncio.gather(*tasks, return_exceptions=True)
+            await upstream.close()
+
+    def _admit_ws(self, direction: str, message: Any, queue: "asyncio.Queue[Any]") -> None:
+        size = len(message) if isinstance(message, str | bytes) else 0
+        self.link.admit(direction, size, "ws", lambda: queue.put_nowait(message))
+        self._release_or_schedule(direction)
+
+    async def _client_to_link(self, ws: WebSocket, to_upstream: "asyncio.Queue[Any]") -> None:
+        with contextlib.suppress(WebSocketDisconnect):
+            while True:
+                message = await ws.receive()
+                if message["type"] == "websocket.disconnect":
+                    return
+                data = message.get("text") if message.get("text") is not None else message.get("bytes")
+                if data is not None:
+                    self._admit_ws("uplink", data, to_upstream)
+
+    async def _link_to_upstream(self, upstream: Any, to_upstream: "asyncio.Queue[Any]") -> None:
+        with contextlib.suppress(websockets.ConnectionClosed):
+            while True:
+                await upstream.send(await to_upstream.get())
+
+    async def _upstream_to_link(self, upstream: Any, to_client: "asyncio.Queue[Any]") -> None:
+        code, reason = CLOSE_UPSTREAM_LOST, "upstream connection lost"
+        try:
+            async for message in upstream:
+                self._admit_ws("downlink", message, to_client)
+            code = upstream.close_code or 1000
+            reason = f"upstream closed: {upstream.close_reason or 'normal closure'}"
+        except websockets.ConnectionClosed:
+            pass
+        # The close travels the downlink behind the data already in flight.
+        assert self.driver is not None
+        self.link.admit(
+            "downlink", 0, "ws_close", lambda: to_client.put_nowait((_CLOSE, code, reason)), lossy=False
+        )
+        self.driver.notify("downlink")
+
+    async def _link_to_client(self, ws: WebSocket, to_client: "asyncio.Queue[Any]") -> None:
+        with contextlib.suppress(WebSocketDisconnect, RuntimeError):
+            while True:
+                message = await to_client.get()
+                if isinstance(message, tuple) and message and message[0] is _CLOSE:
+                    _, code, reason = message
+                    valid = code if 1000 <= code < 5000 and code not in (1005, 1006, 1015) else 1011
+                    await ws.close(valid, reason[:120])
+                    return
+                if isinstance(message, bytes):
+                    await ws.send_bytes(message)
+                else:
+                    await ws.send_text(message)

@@ -1,0 +1,97 @@
+"""Named link profiles, the control API's validation and token, and `ptwl proxy` start-up rules."""
+
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import httpx
+import pytest
+
+from latency.named import LinkConfigError, load_profiles, named_profile, named_profiles
+from server.launcher import ServerProcess, running_proxy
+
+
+def test_named_profiles_load_and_cite_their_sources() -> None:
+    profiles = named_profiles()
+    assert {"zero", "earth_moon", "vozar_4s", "pryor_5s"} <= set(profiles)
+    moon = profiles["earth_moon"]
+    assert moon.uplink + moon.downlink == pytest.approx(2.6)
+    assert profiles["vozar_4s"].uplink + profiles["vozar_4s"].downlink == pytest.approx(4.0)
+    assert profiles["pryor_5s"].uplink + profiles["pryor_5s"].downlink == pytest.approx(5.0)
+    assert all(p.description for p in profiles.values())
+    with pytest.raises(LinkConfigError, match="unknown link profile 'mars'; valid: earth_moon"):
+        named_profile("mars")
+
+
+def test_a_bad_links_file_names_the_key(tmp_path: Path) -> None:
+    path = tmp_path / "links.toml"
+    path.write_text("[slow]\nuplink = -3\n")
+    with pytest.raises(LinkConfigError, match=r"\[slow\] uplink: Input should be greater than or equal to 0"):
+        load_profiles(path)
+
+
+@pytest.fixture(scope="module")
+def proxy(server: ServerProcess) -> Iterator[ServerProcess]:
+    with running_proxy(server.url, "--profile", "earth_moon") as p:
+        yield p
+
+
+def test_put_takes_partial_updates_and_versions_them(proxy: ServerProcess) -> None:
+    before = httpx.get(proxy.url + "/_link/profile").json()
+    assert before["uplink"] == 1.3 and before["jitter"]["distribution"] == "normal"
+    after = httpx.put(proxy.url + "/_link/profile", json={"uplink": 0.1}).json()
+    assert after["uplink"] == 0.1 and after["downlink"] == 1.3  # untouched fields stay
+    assert after["version"] == before["version"] + 1
+
+
+@pytest.mark.parametrize(
+    ("body", "fragment"),
+    [
+        ('{"uplink": -1}', "uplink: Input should be greater than or equal to 0"),
+        ('{"downlink": NaN}', "downlink"),
+        ('{"loss": {"model": "bernoulli", "probability": 2}}', "loss.probability"),
+        ('{"jitter": {"distribution": "cauchy"}}', "jitter.distribution"),
+        ('{"uplink": ', "malformed JSON"),
+        ("[1, 2]", "body must be a JSON object"),
+        ('{"uplnk": 1}', "uplnk: Extra inputs are not permitted"),
+    ],
+)
+def test_bad_profile_updates_are_refused_and_change_nothing(
+    proxy: ServerProcess, body: str, fragment: str
+) -> None:
+    before = httpx.get(proxy.url + "/_link/profile").json()
+    response = httpx.put(
+        proxy.url + "/_link/profile", content=body, headers={"content-type": "application/json"}
+    )
+    assert response.status_code == 422
+    assert fragment in response.json()["detail"]
+    assert httpx.get(proxy.url + "/_link/profile").json() == before
+
+
+def test_control_api_token(server: ServerProcess) -> None:
+    with running_proxy(server.url, "--token", "tok") as guarded:
+        assert httpx.get(guarded.url + "/_link/stats").status_code == 401
+        assert (
+            httpx.get(guarded.url + "/_link/stats", headers={"Authorization": "Bearer no"}).status_code == 403
+        )
+        ok = httpx.get(guarded.url + "/_link/stats", headers={"Authorization": "Bearer tok"})
+        assert ok.status_code == 200 and {"uplink", "downlink"} <= set(ok.json())
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--host", "0.0.0.0"], "refusing to bind 0.0.0.0: a non-loopback address needs an access token"),
+        (["--profile", "mars"], "unknown link profile 'mars'"),
+    ],
+)
+def test_proxy_refuses_to_start(args: list[str], message: str) -> None:
+    result = subprocess.run(
+        [sys.executable, "-m", "server.cli", "proxy", "--port", "0", *args],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 2
+    assert message in result.stderr

@@ -1,0 +1,230 @@
+"""The link proxy between real processes: per-message delays, order, HTTP, blackouts, versions,
+simulated vs real clock, upstream restarts."""
+
+import asyncio
+import contextlib
+import itertools
+import json
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import httpx
+import pytest
+import websockets
+
+from latency.clock import SimulatedLink
+from latency.profile import LinkProfile
+from server.launcher import ServerProcess, running_proxy, running_server
+
+HOLD_TOLERANCE_S = 0.005
+
+
+@pytest.fixture(scope="module")
+def fast_server() -> Iterator[ServerProcess]:
+    """A robot server sending telemetry at 200 messages/s."""
+    with running_server("--scene", "free_space", "--telemetry-hz", "200") as srv:
+        yield srv
+
+
+def ws(url: str) -> str:
+    return url.replace("http://", "ws://") + "/api/telemetry"
+
+
+async def exchange(proxy_url: str, seconds: float, send_hz: float) -> list[tuple[float, dict]]:
+    """Send `send_hz` messages/s up and collect telemetry down for `seconds`; (arrival, message)."""
+    received: list[tuple[float, dict]] = []
+    async with websockets.connect(ws(proxy_url), ping_interval=None) as conn:
+
+        async def send() -> None:
+            for i in range(int(seconds * send_hz)):
+                await conn.send(json.dumps({"client_seq": i}))
+                await asyncio.sleep(1.0 / send_hz)
+
+        async def receive() -> None:
+            end = time.monotonic() + seconds
+            while time.monotonic() < end:
+                try:
+                    text = await asyncio.wait_for(conn.recv(), 0.5)
+                except TimeoutError:
+                    continue
+                received.append((time.time(), json.loads(text)))
+
+        await asyncio.gather(send(), receive())
+    return received
+
+
+def read_record(path: Path) -> list[dict]:
+    return [json.loads(line) for line in path.read_text().splitlines()]
+
+
+def check_record(records: list[dict], direction: str, n_min: int) -> list[dict]:
+    """Every message of `direction` released no earlier than scheduled, at most 5 ms late, in order."""
+    rows = [r for r in records if r["direction"] == direction and r["kind"] == "ws" and r["release"]]
+    assert len(rows) >= n_min
+    assert [r["seq"] for r in rows] == sorted(r["seq"] for r in rows)  # FIFO
+    previous_release = float("-inf")
+    for r in rows:
+        scheduled = max(r["arrival"] + r["configured_delay"], previous_release)
+        assert scheduled <= r["release"] <= scheduled + HOLD_TOLERANCE_S, r
+        previous_release = r["release"]
+    return rows
+
+
+def test_one_second_each_way_200_messages_per_second(fast_server: ServerProcess, tmp_path: Path) -> None:
+    record = tmp_path / "link.jsonl"
+    with running_proxy(fast_server.url, "--uplink", "1", "--downlink", "1", "--record", str(record)) as proxy:
+        received = asyncio.run(exchange(proxy.url, seconds=11.0, send_hz=200.0))
+        time.sleep(1.5)  # the last uplink messages are still in flight
+        stats = httpx.get(proxy.url + "/_link/stats").json()
+    states = [(t, m) for t, m in received if m["type"] == "state"]
+    assert len(states) >= 9.5 * 200  # ~10 s of telemetry after the first second in flight
+    assert all(
+        b["seq"] - a["seq"] == 1 for (_, a), (_, b) in itertools.pairwise(states)
+    )  # none lost, in order
+    ages = [t - m["sent_at"] for t, m in states]
+    assert min(ages) >= 1.0 - 0.002 and max(ages) <= 1.0 + 0.02  # end to end, wall clocks on one host
+    records = read_record(record)
+    down = check_record(records, "downlink", 9 * 200)
+    up = check_record(records, "uplink", 9 * 200)
+    assert all(r["configured_delay"] == pytest.approx(1.0) for r in down + up)
+    for direction in ("uplink", "downlink"):
+        s = stats[direction]
+        assert s["early_releases"] == 0 and s["reorderings"] == 0
+        assert s["holding_error_s"]["p99"] <= HOLD_TOLERANCE_S
+        assert s["realized_delay_s"]["p50"] == pytest.approx(1.0, abs=0.003)
+
+
+def test_jitter_keeps_order_and_reports_realized_delay(fast_server: ServerProcess, tmp_path: Path) -> None:
+    record = tmp_path / "link.jsonl"
+    jitter = {"distribution": "uniform", "amount": 0.3, "seed": 11}
+    with running_proxy(fast_server.url, "--uplink", "1", "--downlink", "1", "--record", str(record)) as proxy:
+        httpx.put(proxy.url + "/_link/profile", json={"jitter": jitter}).raise_for_status()
+        received = asyncio.run(exchange(proxy.url, seconds=6.0, send_hz=200.0))
+        time.sleep(1.5)
+        stats = httpx.get(proxy.url + "/_link/stats").json()
+    states = [m for _, m in received if m["type"] == "state"]
+    assert all(b["seq"] - a["seq"] == 1 for a, b in itertools.pairwise(states))
+    records = read_record(record)
+    down = check_record(records, "downlink", 4 * 200)
+    drawn = [r["configured_delay"] for r in down]
+    assert min(drawn) < 0.8 and max(drawn) > 1.2  # the jitter is there...
+    assert stats["downlink"]["reorderings"] == 0 and stats["downlink"]["early_releases"] == 0  # ...order kept
+    realized = stats["downlink"]["realized_delay_s"]
+    assert 1.0 < realized["p50"] < 1.3 and realized["max"] <= 1.3 + HOLD_TOLERANCE_S
+
+    # The same arrivals on a simulated clock with the same profile make the same schedule.
+    sim = SimulatedLink(LinkProfile(uplink=1.0, downlink=1.0, jitter=jitter), start=records[0]["arrival"] - 1)
+    for r in (r for r in records if r["direction"] == "downlink"):
+        sim.send(r["arrival"], "downlink", r["size"], r["kind"])
+    sim.advance_to(records[-1]["arrival"] + 5.0)
+    replay = sim.released
+    real = [r for r in records if r["direction"] == "downlink" and r["release"]]
+    assert len(replay) == len(real)
+    for (t_sim, e), r in zip(replay, real, strict=True):
+        assert e.configured_delay == pytest.approx(r["configured_delay"], abs=1e-12)
+        assert r["release"] - t_sim == pytest.approx(0.0, abs=HOLD_TOLERANCE_S)
+
+
+def test_http_round_trip_takes_uplink_plus_downlink_and_control_is_immediate(
+    fast_server: ServerProcess,
+) -> None:
+    with running_proxy(fast_server.url, "--uplink", "0.6", "--downlink", "0.9") as proxy:
+        for _ in range(3):
+            t0 = time.monotonic()
+            response = httpx.get(proxy.url + "/api/health")
+            elapsed = time.monotonic() - t0
+            assert response.status_code == 200 and response.json()["status"] == "ok"
+            assert 1.5 <= elapsed <= 1.5 + 0.05
+        t0 = time.monotonic()
+        profile = httpx.get(proxy.url + "/_link/profile").json()
+        assert time.monotonic() - t0 < 0.05
+        assert profile["uplink"] == 0.6 and profile["downlink"] == 0.9 and profile["version"] == 1
+        posted = httpx.post(proxy.url + "/api/commands", json={"type": "rwe", "duration": 0.1}, timeout=10)
+        assert posted.status_code == 202  # bodies and methods pass through
+        bad = httpx.post(proxy.url + "/api/commands", json={"type": "rwe", "duration": -1}, timeout=10)
+        assert bad.status_code == 422 and "duration" in bad.json()["detail"]
+
+
+def test_blackout_hold_and_drop_live(fast_server: ServerProcess) -> None:
+    with running_proxy(fast_server.url, "--downlink", "0.1") as proxy:
+        hold = {"blackouts": [{"start": 1.0, "duration": 1.0, "mode": "hold"}]}
+        httpx.put(proxy.url + "/_link/profile", json=hold).raise_for_status()
+        t_put = time.time()
+        received = asyncio.run(exchange(proxy.url, seconds=3.5, send_hz=1.0))
+        states = [(t - t_put, m) for t, m in received if m["type"] == "state"]
+        assert all(b["seq"] - a["seq"] == 1 for (_, a), (_, b) in itertools.pairwise(states))  # all, in order
+        in_window = [t for t, _ in states if 1.15 < t < 2.05]
+        assert not in_window  # nothing arrives during the loss of signal...
+        burst = [t for t, _ in states if 2.05 <= t < 2.2]
+        assert len(burst) >= 150  # ...then the held second of telemetry arrives at once
+
+        drop = {"blackouts": [{"start": 0.5, "duration": 1.0, "mode": "drop"}]}
+        httpx.put(proxy.url + "/_link/profile", json=drop).raise_for_status()
+        before = httpx.get(proxy.url + "/_link/stats").json()["downlink"]["dropped"]["blackout"]
+        received = asyncio.run(exchange(proxy.url, seconds=2.5, send_hz=1.0))
+        dropped = httpx.get(proxy.url + "/_link/stats").json()["downlink"]["dropped"]["blackout"] - before
+        states = [m for _, m in received if m["type"] == "state"]
+        gaps = [b["seq"] - a["seq"] - 1 for a, b in itertools.pairwise(states) if b["seq"] - a["seq"] > 1]
+        assert len(gaps) == 1 and gaps[0] == pytest.approx(200, abs=3)  # one second lost, whole messages
+        assert dropped == pytest.approx(gaps[0], abs=3)
+
+
+def test_profile_change_mid_stream_is_versioned(fast_server: ServerProcess, tmp_path: Path) -> None:
+    record = tmp_path / "link.jsonl"
+    with running_proxy(fast_server.url, "--downlink", "1.0", "--record", str(record)) as proxy:
+
+        async def run() -> None:
+            async with websockets.connect(ws(proxy.url), ping_interval=None) as conn:
+                end = time.monotonic() + 4.0
+                changed = False
+                while time.monotonic() < end:
+                    with contextlib.suppress(TimeoutError):
+                        await asyncio.wait_for(conn.recv(), 0.5)
+                    if not changed and time.monotonic() > end - 2.5:
+                        async with httpx.AsyncClient() as client:
+                            r = await client.put(proxy.url + "/_link/profile", json={"downlink": 0.2})
+                            assert r.json()["version"] == 2
+                        changed = True
+
+        asyncio.run(run())
+        time.sleep(1.2)
+    rows = [r for r in read_record(record) if r["direction"] == "downlink" and r["kind"] == "ws"]
+    v1 = [r for r in rows if r["profile_version"] == 1]
+    v2 = [r for r in rows if r["profile_version"] == 2]
+    assert v1 and v2
+    assert all(r["configured_delay"] == pytest.approx(1.0) for r in v1)
+    assert all(r["configured_delay"] == pytest.approx(0.2) for r in v2)
+    assert min(r["release"] for r in v2) >= max(r["release"] for r in v1)  # no overtaking
+    assert [r["seq"] for r in rows] == sorted(r["seq"] for r in rows)
+
+
+def test_upstream_restart_gives_502_then_recovers(tmp_path: Path) -> None:
+    with running_server("--scene", "free_space") as first:
+        port = first.port
+        with running_proxy(first.url) as proxy:
+            assert httpx.get(proxy.url + "/api/health").status_code == 200
+
+            async def closed_by_upstream_stop() -> tuple[int, str]:
+                async with websockets.connect(ws(proxy.url), ping_interval=None) as conn:
+                    await conn.recv()
+                    first.stop()
+                    with pytest.raises(websockets.ConnectionClosed):
+                        while True:
+                            await asyncio.wait_for(conn.recv(), 10.0)
+                    assert conn.close_code is not None
+                    return conn.close_code, conn.close_reason or ""
+
+            code, reason = asyncio.run(closed_by_upstream_stop())
+            assert code in (1001, 1012) and "upstream" in reason
+            down = httpx.get(proxy.url + "/api/health")
+            assert down.status_code == 502
+            assert f"upstream http://127.0.0.1:{port} unreachable" in down.json()["detail"]
+            with running_server("--scene", "free_space", port=port):
+                assert httpx.get(proxy.url + "/api/health").status_code == 200
+
+                async def reconnect() -> dict:
+                    async with websockets.connect(ws(proxy.url), ping_interval=None) as conn:
+                        return json.loads(await asyncio.wait_for(conn.recv(), 5.0))
+
+                assert asyncio.run(reconnect())["type"] == "state"
