@@ -21,6 +21,7 @@ from websockets.sync.client import connect
 from server.models import (
     CommandAccepted,
     CommandStatus,
+    GeometryModel,
     HealthModel,
     RobotStateModel,
     SceneModel,
@@ -81,6 +82,9 @@ class RobotClient:
 
     def presets(self) -> dict[str, Any]:
         return self._request("GET", "/api/presets")
+
+    def geometry(self) -> GeometryModel:
+        return GeometryModel(**self._request("GET", "/api/geometry"))
 
     def scenes(self) -> list[SceneModel]:
         return [SceneModel(**s) for s in self._request("GET", "/api/scenes")]

@@ -55,6 +55,9 @@ class RobotStateModel(BaseModel):
     scene: str = Field(description="loaded scene")
     manipulability: float = Field(description="sqrt(det(J J^T)); the DLS damps below 0.012")
     faults: int = Field(description="simulation faults since start (each reset the scene)")
+    bodies: dict[str, list[float]] = Field(
+        default_factory=dict, description="moving bodies' poses [x y z (m), qw qx qy qz], base frame"
+    )
 
 
 class HealthModel(BaseModel):
@@ -74,6 +77,33 @@ class SceneRequest(BaseModel):
 class SceneModel(BaseModel):
     name: str = Field(description="scene name for POST /api/scene")
     description: str = Field(description="what is in it")
+
+
+class GeomModel(BaseModel):
+    name: str = Field(description="geom name (may be empty)")
+    body: str = Field(description="the body it is fixed to")
+    type: Literal["plane", "sphere", "capsule", "cylinder", "box", "mesh"] = Field(
+        description="MuJoCo geom type"
+    )
+    size: list[float] = Field(
+        description="[m] MuJoCo sizes: half-extents (box), radius and half-length (capsule, cylinder)"
+    )
+    pos: list[float] = Field(description="[m] position in the body frame")
+    quat: list[float] = Field(description="orientation in the body frame, w x y z")
+    rgba: list[float] = Field(description="colour, 0-1")
+    vertices: list[list[float]] | None = Field(None, description="[m] mesh vertices in the geom frame")
+    faces: list[list[int]] | None = Field(None, description="mesh triangles, vertex indices")
+
+
+class BodyModel(BaseModel):
+    moving: bool = Field(description="its pose changes (telemetry carries it in `bodies`)")
+    pose: list[float] = Field(description="[x y z (m), qw qx qy qz] now, base frame")
+
+
+class GeometryModel(BaseModel):
+    scene: str = Field(description="loaded scene")
+    bodies: dict[str, BodyModel] = Field(description="every body by name")
+    geoms: list[GeomModel] = Field(description="every visible geom")
 
 
 class TaskModel(BaseModel):

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from robot_sim.behaviors import BehaviorReport, behavior_for
+from robot_sim.geometry import body_poses, moving_bodies
 from robot_sim.scenes import get_scene
 from robot_sim.sim import Simulation
 from server.commands import CommandBook, CommandRecord
@@ -46,6 +47,7 @@ class SimRunner:
     ) -> None:
         get_scene(scene)  # fail early, listing the scenes
         self.sim = Simulation(scene, seed)
+        self._moving = moving_bodies(self.sim.model)
         self.book = book
         self._publish = publish
         self._on_command_done = on_command_done
@@ -91,6 +93,7 @@ class SimRunner:
         """(simulation thread) Stop everything and load `name` fresh."""
         stopped = self.stop_all()
         self.sim.reset(name, seed)
+        self._moving = moving_bodies(self.sim.model)
         self._pacer.rebase()
         self._next_telemetry = 0.0
         self.latest_state = self._state()
@@ -160,6 +163,7 @@ class SimRunner:
             "scene": state.scene,
             "manipulability": state.manipulability,
             "faults": self.sim.fault_count,
+            "bodies": body_poses(self.sim.model, self.sim.data, self._moving),
         }
 
     def _publish_state(self) -> None:

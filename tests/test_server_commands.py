@@ -168,3 +168,21 @@ def test_readme_example_script_drives_a_ptwl_rwe_sequence(server) -> None:  # ty
     assert lines[0].startswith("press") and "wrench_breach" in lines[0]
     assert lines[1].startswith("relieve") and "completed" in lines[1]
     assert lines[2].startswith("back off") and "goal_reached" in lines[2]
+
+
+def test_geometry_and_body_poses_let_a_client_draw_the_scene(robot: RobotClient) -> None:
+    robot.reset_scene("sleeve_on_peg")
+    geometry = robot.geometry()
+    assert geometry.scene == "sleeve_on_peg"
+    kinds = {g.type for g in geometry.geoms}
+    assert {"box", "cylinder", "mesh", "plane"} <= kinds
+    chamfer = next(g for g in geometry.geoms if g.name == "peg_chamfer")
+    assert chamfer.vertices and chamfer.faces and len(chamfer.vertices) == 48
+    assert sum(1 for g in geometry.geoms if g.body == "arm/tool/tool") >= 16  # the sleeve's walls
+    moving = {name for name, body in geometry.bodies.items() if body.moving}
+    assert {"arm/link1", "arm/link6", "arm/tool/tool"} <= moving and "peg_base" not in moving
+    state = robot.state()
+    assert set(state.bodies) == moving
+    # The tool body and the port (on it) agree: the port is 96 mm along the tool's z.
+    tool = np.array(state.bodies["arm/tool/tool"][0:3])
+    assert np.linalg.norm(tool - np.array(state.port.position)) == pytest.approx(0.096, abs=1e-3)

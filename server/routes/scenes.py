@@ -2,9 +2,10 @@
 
 from fastapi import APIRouter
 
+from robot_sim.geometry import scene_geometry
 from robot_sim.scenes import SCENES, get_scene
 from server.auth import Authorized
-from server.models import SceneModel, SceneRequest, StopResult
+from server.models import GeometryModel, SceneModel, SceneRequest, StopResult
 from server.routes.deps import Runner, on_sim_thread
 
 router = APIRouter(prefix="/api", tags=["scenes"])
@@ -20,3 +21,14 @@ async def reset_scene(body: SceneRequest, _: Authorized, runner: Runner) -> Stop
     """Stop everything (running and queued commands end `aborted`) and load the scene fresh."""
     get_scene(body.name)  # 422 listing the valid names
     return StopResult(**await on_sim_thread(runner, lambda: runner.reset_scene(body.name, body.seed)))
+
+
+@router.get("/geometry", response_model=GeometryModel)
+async def geometry(_: Authorized, runner: Runner) -> GeometryModel:
+    """The loaded scene's geoms and bodies, to draw it; moving bodies' poses come with telemetry."""
+
+    def read() -> GeometryModel:
+        data = scene_geometry(runner.sim.model, runner.sim.data)
+        return GeometryModel(scene=runner.sim.scene.name, **data)
+
+    return await on_sim_thread(runner, read)
