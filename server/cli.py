@@ -1,11 +1,12 @@
 """The `ptwl` command line.
 
-    ptwl up [--scene NAME] [--seed N] [--demo] [--seconds S]    headless robot, real time
-    ptwl scenes | ptwl presets                                  what exists
+    ptwl up [--scene NAME] [--rtt S | --profile NAME]    server + link + console, prints the URL
+    ptwl serve | ptwl proxy | ptwl console               each of those alone
+    ptwl sim [--scene NAME] [--demo] [--seconds S]        the robot alone, headless, real time
+    ptwl scenes | ptwl presets                            what exists
 
-Until the robot server, the link and the console land, `ptwl up` runs the simulation paced to
-real time and prints one status line a second; `--demo` drives the paper's sleeve-on-peg
-sequence (tilt, jammed PTWL, RWE, torsional dither, PTWL) so every behavior and its exit shows.
+`ptwl sim --demo` drives the paper's sleeve-on-peg sequence (tilt, jammed PTWL, RWE, torsional
+dither, PTWL) and prints one status line a second.
 """
 
 import argparse
@@ -64,6 +65,32 @@ def _stop_on_sigterm(signum: int, frame: object) -> None:
 
 
 def cmd_up(args: argparse.Namespace) -> int:
+    from server.up import up
+
+    if args.rtt < 0:
+        raise ConfigError(f"--rtt must be >= 0 s, got {args.rtt:g}")
+    link_args = (
+        ["--profile", args.profile]
+        if args.profile
+        else ["--uplink", f"{args.rtt / 2}", "--downlink", f"{args.rtt / 2}"]
+    )
+    return up(args.scene, link_args, args.server_port, args.proxy_port, args.console_port)
+
+
+def cmd_console(args: argparse.Namespace) -> int:
+    # Imported here: only this command needs viser.
+    from server.config import is_loopback
+    from web.cli import run_console
+
+    if not is_loopback(args.host) and not args.token:
+        raise ConfigError(
+            f"refusing to bind {args.host}: a non-loopback address needs an access token (--token)"
+        )
+    run_console(args.robot, args.host, args.port, args.token or None)
+    return 0
+
+
+def cmd_sim(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, _stop_on_sigterm)
     scene = args.scene or ("sleeve_on_peg" if args.demo else "surface")
     sim = Simulation(scene, seed=args.seed)
@@ -142,12 +169,29 @@ def cmd_presets(_: argparse.Namespace) -> int:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="ptwl", description="PTWL supervisory control console")
     sub = parser.add_subparsers(dest="command", required=True)
-    up = sub.add_parser("up", help="run the robot (headless, real time) and print its status")
-    up.add_argument("--scene", choices=list(SCENES), help="default: surface (sleeve_on_peg with --demo)")
-    up.add_argument("--seed", type=int, default=None, help="jitter the fixture (default: nominal)")
-    up.add_argument("--demo", action="store_true", help="run the paper's sleeve-on-peg sequence")
-    up.add_argument("--seconds", type=float, default=None, help="stop after this much sim time")
+    up = sub.add_parser("up", help="robot server, link and console on 127.0.0.1; prints the console URL")
+    up.add_argument("--scene", choices=list(SCENES), default="surface")
+    link = up.add_mutually_exclusive_group()
+    link.add_argument("--rtt", type=float, default=0.0, help="[s] round trip, split evenly (default 0)")
+    link.add_argument("--profile", help="a named link profile from config/links.toml")
+    up.add_argument("--server-port", type=int, default=8000)
+    up.add_argument("--proxy-port", type=int, default=8001)
+    up.add_argument("--console-port", type=int, default=8080)
     up.set_defaults(func=cmd_up)
+    sim = sub.add_parser("sim", help="the robot alone, headless, in real time, printing its status")
+    sim.add_argument("--scene", choices=list(SCENES), help="default: surface (sleeve_on_peg with --demo)")
+    sim.add_argument("--seed", type=int, default=None, help="jitter the fixture (default: nominal)")
+    sim.add_argument("--demo", action="store_true", help="run the paper's sleeve-on-peg sequence")
+    sim.add_argument("--seconds", type=float, default=None, help="stop after this much sim time")
+    sim.set_defaults(func=cmd_sim)
+    console = sub.add_parser("console", help="the operator console (viser) for a robot or link URL")
+    console.add_argument("--robot", default="http://127.0.0.1:8001", help="the link proxy (or robot server)")
+    console.add_argument(
+        "--host", default="127.0.0.1", help="where browsers connect (non-loopback needs --token)"
+    )
+    console.add_argument("--port", type=int, default=8080)
+    console.add_argument("--token", default=os.environ.get("PTWL_TOKEN"), help="the robot's access token")
+    console.set_defaults(func=cmd_console)
     serve = sub.add_parser("serve", help="run the robot server (REST + WebSocket telemetry)")
     serve.add_argument("--host", default="127.0.0.1", help="bind address (non-loopback needs --token)")
     serve.add_argument("--port", type=int, default=8000, help="0 picks a free port (printed)")

@@ -52,8 +52,12 @@ def running_proxy(
 
 
 @contextmanager
-def running(*ptwl_args: str, health: str, startup_timeout: float = 30.0) -> Iterator[ServerProcess]:
-    """Start `ptwl ARGS`, read the URL it prints, wait until `health` answers."""
+def running(
+    *ptwl_args: str, health: str, startup_timeout: float = 30.0, echo: str | None = None
+) -> Iterator[ServerProcess]:
+    """Start `ptwl ARGS`, read the URL it prints, wait until `health` answers.
+
+    With `echo`, the child's output is also printed, each line prefixed with it."""
     cmd = [sys.executable, "-m", "server.cli", *ptwl_args]
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     process = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
@@ -65,6 +69,8 @@ def running(*ptwl_args: str, health: str, startup_timeout: float = 30.0) -> Iter
         assert process.stdout is not None
         for line in process.stdout:
             output.append(line)
+            if echo is not None:
+                print(f"{echo}{line}", end="", flush=True)
             match = URL_PATTERN.search(line)
             if match and not url:
                 url.append(match.group(1))

@@ -50,9 +50,9 @@ def test_pacer_drops_a_backlog_instead_of_racing(monkeypatch: pytest.MonkeyPatch
     assert abs(pacer.lag_s()) < MAX_LAG_S
 
 
-def test_ptwl_up_runs_in_real_time_and_prints_status(capsys: pytest.CaptureFixture[str]) -> None:
+def test_ptwl_sim_runs_in_real_time_and_prints_status(capsys: pytest.CaptureFixture[str]) -> None:
     t0 = time.monotonic()
-    assert main(["up", "--scene", "surface", "--seconds", "1.5"]) == 0
+    assert main(["sim", "--scene", "surface", "--seconds", "1.5"]) == 0
     wall = time.monotonic() - t0
     out = capsys.readouterr().out
     assert "robot up on scene 'surface'" in out

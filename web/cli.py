@@ -1,0 +1,20 @@
+"""`ptwl console`: run the operator console until SIGINT/SIGTERM."""
+
+import signal
+import threading
+
+from web.app import ConsoleApp
+
+
+def run_console(robot_url: str, host: str, port: int, token: str | None) -> None:
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda signum, frame: stop.set())
+    app = ConsoleApp(robot_url, host=host, port=port, token=token)
+    print(f"ptwl console: operator console on {app.url} (robot via {robot_url})", flush=True)
+    try:
+        app.connect()
+        stop.wait()
+    finally:
+        app.close()
+        print("ptwl console: stopped", flush=True)

@@ -1,0 +1,126 @@
+"""Each command's life as the console sees it, and the counts the paper's tables use.
+
+A command sent from this console is `sent` at once (the operator sees it immediately), then
+`queued` when the robot's 202 comes back over the link, `running` and `done` from telemetry.
+Commands from other consoles or scripts appear from their telemetry events alone.
+"""
+
+import threading
+import time
+from collections import Counter
+from dataclasses import dataclass, field
+from typing import Any
+
+EXIT_COLORS = {
+    "goal_reached": "#2f9e44",
+    "completed": "#2f9e44",
+    "wrench_breach": "#e8590c",
+    "timeout": "#f08c00",
+    "aborted": "#868e96",
+    "fault": "#e03131",
+    "refused": "#e03131",
+}
+PHASE_COLORS = {"sent": "#1971c2", "queued": "#1971c2", "running": "#7048e8"}
+
+
+@dataclass
+class CommandView:
+    local: int
+    behavior: str
+    phase: str  # sent | queued | running | done | refused
+    id: int | None = None
+    exit: str | None = None
+    sent_at: float = field(default_factory=time.time)
+    peak_force: float | None = None
+    peak_torque: float | None = None
+    duration: float | None = None
+    detail: str = ""
+    target: Any = None  # (position, wxyz) for PTWL sent from here
+
+    @property
+    def label(self) -> str:
+        return f"#{self.id}" if self.id is not None else f"(local {self.local})"
+
+    @property
+    def status(self) -> str:
+        return self.exit if self.phase == "done" and self.exit else self.phase
+
+    @property
+    def color(self) -> str:
+        return EXIT_COLORS.get(self.status, PHASE_COLORS.get(self.status, "#495057"))
+
+
+class CommandHistory:
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._views: list[CommandView] = []
+        self._by_id: dict[int, CommandView] = {}
+        self._early: dict[int, dict[str, Any]] = {}  # events that beat their 202 back
+        self._next_local = 1
+
+    def sent(self, behavior: str, target: Any = None) -> CommandView:
+        with self._lock:
+            view = CommandView(self._next_local, behavior, "sent", target=target)
+            self._next_local += 1
+            self._views.append(view)
+            return view
+
+    def accepted(self, view: CommandView, command_id: int) -> None:
+        with self._lock:
+            view.id = command_id
+            if view.phase == "sent":
+                view.phase = "queued"
+            self._by_id[command_id] = view
+            early = self._early.pop(command_id, None)
+        if early is not None:
+            self.event(early)
+
+    def refused(self, view: CommandView, detail: str) -> None:
+        with self._lock:
+            view.phase, view.exit, view.detail = "done", "refused", detail
+
+    def event(self, message: dict[str, Any]) -> tuple[CommandView | None, bool]:
+        """Apply a telemetry command event; (the view, whether it just ended)."""
+        command_id = int(message["id"])
+        with self._lock:
+            view = self._by_id.get(command_id)
+            if view is None:
+                # Ours, with the 202 still on its way? Keep it until it lands; else someone else's.
+                if any(v.phase == "sent" and v.behavior == message["behavior"] for v in self._views):
+                    self._early[command_id] = message
+                    return None, False
+                view = CommandView(0, message["behavior"], "queued", id=command_id)
+                self._views.append(view)
+                self._by_id[command_id] = view
+            was_done = view.phase == "done"
+            view.phase = message["status"]
+            view.exit = message.get("exit")
+            view.peak_force = message.get("peak_force")
+            view.peak_torque = message.get("peak_torque")
+            view.duration = message.get("duration")
+            view.detail = message.get("detail") or ""
+            return view, view.phase == "done" and not was_done
+
+    def recent(self, n: int = 8) -> list[CommandView]:
+        with self._lock:
+            return list(self._views[-n:])
+
+    def latest(self) -> CommandView | None:
+        with self._lock:
+            return self._views[-1] if self._views else None
+
+    def counts(self) -> dict[str, Any]:
+        """PTWL by exit condition, RWE and Dither counts, peak force and torque (paper's tables)."""
+        with self._lock:
+            done = [v for v in self._views if v.phase == "done" and v.exit != "refused"]
+            ptwl = Counter(v.exit for v in done if v.behavior == "ptwl")
+            forces = [v.peak_force for v in done if v.peak_force is not None]
+            torques = [v.peak_torque for v in done if v.peak_torque is not None]
+            return {
+                "ptwl": dict(ptwl),
+                "ptwl_total": sum(ptwl.values()),
+                "rwe": sum(1 for v in done if v.behavior == "rwe"),
+                "dither": sum(1 for v in done if v.behavior == "dither"),
+                "peak_force": max(forces, default=0.0),
+                "peak_torque": max(torques, default=0.0),
+            }

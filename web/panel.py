@@ -1,0 +1,204 @@
+"""The control panel of the paper's Fig. 2: PTWL, RWE and Dither tabs over a stiffness preset.
+
+Fields are in operator units (mm, deg); `ptwl_params()` and friends turn them into the API's SI
+request bodies. The panel only builds widgets and reads them; what a click does is wired by the
+app, which keeps this file free of robot and link logic.
+"""
+
+import math
+from typing import Any
+
+import numpy as np
+import viser
+
+from web.defaults import ConsoleDefaults
+
+AXES = ("x", "y", "z", "rx", "ry", "rz")
+
+
+class Panel:
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        defaults: ConsoleDefaults,
+        stiffness_presets: list[str],
+        dither_presets: dict[str, dict[str, Any]],
+        scenes: list[str],
+        scene: str,
+    ) -> None:
+        gui = server.gui
+        self.dither_presets = dither_presets
+        gui.configure_theme(control_width="large", dark_mode=False)
+        self.status = gui.add_html(_status_html("connecting...", None, None, None))
+
+        tabs = gui.add_tab_group()
+        d = defaults.ptwl
+        with tabs.add_tab("PTWL"):
+            self.translation = gui.add_vector3("Translation [mm]", tuple(d["translation_mm"]), step=0.1)
+            self.rotation = gui.add_vector3("Rotation [deg]", tuple(d["rotation_deg"]), step=0.1)
+            self.frame = gui.add_dropdown("Frame", ("tool", "base"), initial_value=d["frame"])
+            self.duration = gui.add_number("Duration [s]", d["duration_s"], min=0.01, max=600.0, step=0.1)
+            self.force_threshold = gui.add_number(
+                "Force threshold [N]", d["force_threshold_n"], min=0.1, step=0.5
+            )
+            self.torque_threshold = gui.add_number(
+                "Torque threshold [N m]", d["torque_threshold_nm"], min=0.01, step=0.05
+            )
+            self.position_tolerance = gui.add_number(
+                "Position tolerance [mm]", d["position_tolerance_mm"], min=0.01, step=0.1
+            )
+            self.orientation_tolerance = gui.add_number(
+                "Orientation tolerance [deg]", d["orientation_tolerance_deg"], min=0.01, step=0.1
+            )
+            self.watchdog = gui.add_number("Watchdog [s]", d["watchdog_s"], min=0.01, max=600.0, step=0.5)
+            self.show_gizmo = gui.add_checkbox("Drag target in 3D", False)
+            self.send_ptwl = gui.add_button("Send cmd", color="blue")
+        with tabs.add_tab("RWE"):
+            self.rwe_axes = {a: gui.add_checkbox(a, a in defaults.rwe["axes"]) for a in AXES}
+            self.rwe_duration = gui.add_number(
+                "RWE duration [s]", defaults.rwe["duration_s"], min=0.01, max=600.0
+            )
+            self.send_rwe = gui.add_button("Send RWE", color="blue")
+        with tabs.add_tab("Dither"):
+            names = list(dither_presets)
+            first = defaults.dither_preset if defaults.dither_preset in names else names[0]
+            self.dither_preset = gui.add_dropdown("Dither preset", names, initial_value=first)
+            self.dither_axis = gui.add_vector3("Axis (tool frame)", (0.0, 0.0, 1.0), step=0.1)
+            self.dither_amplitude = gui.add_number("Amplitude [deg or mm]", 1.0, min=0.001, step=0.1)
+            self.dither_frequency = gui.add_number("Frequency [Hz]", 1.0, min=0.01, max=10.0, step=0.1)
+            self.dither_travel = gui.add_number("Travel [mm]", 10.0, min=0.0, max=1000.0, step=0.5)
+            self.dither_duration = gui.add_number("Dither duration [s]", 5.0, min=0.01, max=600.0, step=0.5)
+            self.send_dither = gui.add_button("Send dither", color="blue")
+            self.dither_preset.on_update(lambda _: self.fill_dither_fields())
+            self.fill_dither_fields()
+
+        initial = defaults.stiffness_preset if defaults.stiffness_preset in stiffness_presets else None
+        self.stiffness = gui.add_dropdown(
+            "Stiffness preset", stiffness_presets, initial_value=initial or stiffness_presets[0]
+        )
+        self.stop = gui.add_button(
+            "STOP", color="red", hint="abort the running command, drop the queue, hold"
+        )
+        self.command_status = gui.add_html(_command_html(None))
+
+        with gui.add_folder("Force / torque", expand_by_default=True):
+            empty = np.zeros(1)
+            self.force_plot = gui.add_uplot(
+                (empty, empty, empty, empty),
+                (
+                    {"label": "t [s]"},
+                    {"label": "fx [N]", "stroke": "#e03131"},
+                    {"label": "fy [N]", "stroke": "#2f9e44"},
+                    {"label": "fz [N]", "stroke": "#1971c2"},
+                ),
+                scales={"x": {"time": False}},
+                aspect=2.5,
+            )
+            self.torque_plot = gui.add_uplot(
+                (empty, empty, empty, empty),
+                (
+                    {"label": "t [s]"},
+                    {"label": "tx [N m]", "stroke": "#e03131"},
+                    {"label": "ty [N m]", "stroke": "#2f9e44"},
+                    {"label": "tz [N m]", "stroke": "#1971c2"},
+                ),
+                scales={"x": {"time": False}},
+                aspect=2.5,
+            )
+        with gui.add_folder("Commands", expand_by_default=True):
+            self.history = gui.add_markdown("No commands yet.")
+        with gui.add_folder("Scene and link", expand_by_default=False):
+            self.scene = gui.add_dropdown("Scene", scenes, initial_value=scene)
+            self.seed = gui.add_number("Seed (0: nominal)", 0, min=0, step=1)
+            self.reset_scene = gui.add_button("Reset scene")
+            self.link = gui.add_markdown("link: unknown")
+
+    # ------------------------------------------------------------ requests
+    def ptwl_values(self) -> tuple[np.ndarray, np.ndarray, str]:
+        """(translation [m], rotation vector [rad], frame) from the fields."""
+        return (
+            np.asarray(self.translation.value, dtype=float) / 1000.0,
+            np.radians(np.asarray(self.rotation.value, dtype=float)),
+            str(self.frame.value),
+        )
+
+    def ptwl_params(self) -> dict[str, Any]:
+        translation, rotation, frame = self.ptwl_values()
+        return {
+            "translation": translation.tolist(),
+            "rotation": rotation.tolist(),
+            "frame": frame,
+            "duration": float(self.duration.value),
+            "force_threshold": float(self.force_threshold.value),
+            "torque_threshold": float(self.torque_threshold.value),
+            "position_tolerance": float(self.position_tolerance.value) / 1000.0,
+            "orientation_tolerance": math.radians(float(self.orientation_tolerance.value)),
+            "watchdog": float(self.watchdog.value),
+            "preset": str(self.stiffness.value),
+        }
+
+    def set_ptwl_displacement(self, translation_m: np.ndarray, rotation_rad: np.ndarray) -> None:
+        _set(self.translation, np.round(np.asarray(translation_m) * 1000.0, 2))
+        _set(self.rotation, np.round(np.degrees(rotation_rad), 2))
+
+    def rwe_params(self) -> dict[str, Any]:
+        return {
+            "axes": [a for a, box in self.rwe_axes.items() if box.value],
+            "duration": float(self.rwe_duration.value),
+        }
+
+    def _dither_is_torsional(self) -> bool:
+        return self.dither_presets[str(self.dither_preset.value)]["mode"] == "torsional"
+
+    def fill_dither_fields(self) -> None:
+        p = self.dither_presets[str(self.dither_preset.value)]
+        _set(self.dither_axis, np.asarray(p["axis"], dtype=float))
+        torsional = p["mode"] == "torsional"
+        _set(
+            self.dither_amplitude,
+            round(math.degrees(p["amplitude"]) if torsional else p["amplitude"] * 1000, 3),
+        )
+        _set(self.dither_frequency, p["frequency"])
+        _set(self.dither_travel, round(p["travel"] * 1000.0, 3))
+        _set(self.dither_duration, p["duration"])
+
+    def dither_params(self) -> dict[str, Any]:
+        amplitude = float(self.dither_amplitude.value)
+        return {
+            "preset": str(self.dither_preset.value),
+            "axis": list(self.dither_axis.value),
+            "amplitude": math.radians(amplitude) if self._dither_is_torsional() else amplitude / 1000.0,
+            "frequency": float(self.dither_frequency.value),
+            "travel": float(self.dither_travel.value) / 1000.0,
+            "duration": float(self.dither_duration.value),
+        }
+
+    # ------------------------------------------------------------- display
+    def show_status(self, text: str, seq: int | None, arrived: float | None, age: float | None) -> None:
+        self.status.content = _status_html(text, seq, arrived, age)
+
+    def show_command(self, view: Any) -> None:
+        self.command_status.content = _command_html(view)
+
+
+def _set(handle: Any, value: Any) -> None:
+    """Assign a GUI input's value (viser syncs it to every browser)."""
+    handle.value = value
+
+
+def _status_html(text: str, seq: int | None, arrived: float | None, age: float | None) -> str:
+    # data-* attributes let tests and the console benchmark read what the browser shows.
+    attrs = f'data-seq="{seq if seq is not None else ""}" data-arrived="{arrived if arrived else ""}"'
+    attrs += f' data-age="{age if age is not None else ""}"'
+    return f'<div id="ptwl-telemetry" {attrs} style="font-size:0.85em;padding:4px 0">{text}</div>'
+
+
+def _command_html(view: Any) -> str:
+    if view is None:
+        return '<div id="ptwl-command" data-status="" style="padding:4px 0">No command yet.</div>'
+    extra = f" — {view.detail}" if view.detail else ""
+    return (
+        f'<div id="ptwl-command" data-status="{view.status}" data-id="{view.id or ""}" '
+        f'style="padding:4px 8px;border-left:6px solid {view.color};font-weight:600">'
+        f"{view.behavior.upper()} {view.label}: {view.status}{extra}</div>"
+    )
