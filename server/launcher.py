@@ -3,6 +3,7 @@
 import os
 import re
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -14,6 +15,13 @@ from dataclasses import dataclass
 import httpx
 
 URL_PATTERN = re.compile(r" on (http://\S+)")
+
+
+def free_port() -> int:
+    """A port nothing listens on right now (for children that cannot take port 0)."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
 
 
 @dataclass
@@ -48,6 +56,14 @@ def running_proxy(
     """Start `ptwl proxy --upstream URL --port PORT ARGS`, wait until it answers, SIGINT it after."""
     cmd = ("proxy", "--upstream", upstream, "--port", str(port), *args)
     with running(*cmd, health="/_link/profile", startup_timeout=startup_timeout) as p:
+        yield p
+
+
+@contextmanager
+def running_console(robot_url: str, *args: str, startup_timeout: float = 60.0) -> Iterator[ServerProcess]:
+    """Start `ptwl console --robot URL` on a free port, wait until it serves its page."""
+    cmd = ("console", "--robot", robot_url, "--port", str(free_port()), *args)
+    with running(*cmd, health="/", startup_timeout=startup_timeout) as p:
         yield p
 
 

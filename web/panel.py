@@ -197,8 +197,15 @@ def _command_html(view: Any) -> str:
     if view is None:
         return '<div id="ptwl-command" data-status="" style="padding:4px 0">No command yet.</div>'
     extra = f" — {view.detail}" if view.detail else ""
+    target = ""
+    if view.target is not None and view.phase != "done":
+        x, y, z = (1000.0 * float(v) for v in view.target[0])
+        target = (
+            '<div id="ptwl-commanded" style="font-weight:400">'
+            f"commanded target ({x:.1f}, {y:.1f}, {z:.1f}) mm</div>"
+        )
     return (
         f'<div id="ptwl-command" data-status="{view.status}" data-id="{view.id or ""}" '
         f'style="padding:4px 8px;border-left:6px solid {view.color};font-weight:600">'
-        f"{view.behavior.upper()} {view.label}: {view.status}{extra}</div>"
+        f"{view.behavior.upper()} {view.label}: {view.status}{extra}{target}</div>"
     )

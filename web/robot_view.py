@@ -14,6 +14,7 @@ from server.models import GeometryModel
 from web.meshes import body_meshes
 from web.targets import Pose
 
+MOVE_EPSILON = 1e-5  # [m] and quaternion units: below this a pose is not re-sent
 YELLOW = (250, 204, 21)
 RED = (224, 49, 49)
 FORCE_COLOR = (230, 119, 0)
@@ -25,6 +26,7 @@ class RobotView:
         self.arrow_m_per_n = arrow_m_per_n
         self._bodies: dict[str, viser.FrameHandle] = {}
         self._meshes: list[object] = []
+        self._sent: dict[str, np.ndarray] = {}
         scene = server.scene
         scene.set_up_direction("+z")
         scene.add_grid("/floor", width=2.0, height=2.0, cell_size=0.1, section_size=0.5)
@@ -65,6 +67,7 @@ class RobotView:
         for handle in [*self._meshes, *self._bodies.values()]:
             handle.remove()  # type: ignore[attr-defined]
         self._meshes, self._bodies = [], {}
+        self._sent.clear()
         meshes = body_meshes(geometry)
         for name, body in geometry.bodies.items():
             if name not in meshes:
@@ -77,20 +80,34 @@ class RobotView:
 
     # ------------------------------------------------------------ telemetry
     def update(self, state: dict) -> None:
-        """Move everything to a telemetry state (call inside server.atomic())."""
+        """Move everything to a telemetry state (call inside server.atomic()).
+
+        Only what moved is sent: every assignment is a message to every browser."""
         for name, pose in state.get("bodies", {}).items():
             frame = self._bodies.get(name)
             if frame is not None:
-                frame.position = pose[0:3]
-                frame.wxyz = pose[3:7]
+                self._place(name, frame, pose[0:3], pose[3:7])
         port, attractor = state["port"], state["attractor"]
-        self.port.position = port["position"]
-        self.port.wxyz = port["quaternion"]
-        self.attractor.position = attractor["position"]
-        self.attractor.wxyz = attractor["quaternion"]
+        self._place("/port", self.port, port["position"], port["quaternion"])
+        self._place("/attractor", self.attractor, attractor["position"], attractor["quaternion"])
         start = np.asarray(port["position"], dtype=float)
         force = np.asarray(state["wrench"][0:3], dtype=float)
-        self.wrench.points = np.stack([start, start + force * self.arrow_m_per_n])[None]
+        arrow = np.stack([start, start + force * self.arrow_m_per_n])[None]
+        if self._moved("/wrench", arrow.ravel()):
+            self.wrench.points = arrow
+
+    def _moved(self, key: str, values: np.ndarray) -> bool:
+        last = self._sent.get(key)
+        if last is not None and float(np.max(np.abs(last - values))) < MOVE_EPSILON:
+            return False
+        self._sent[key] = values
+        return True
+
+    def _place(self, key: str, handle: viser.FrameHandle, position: list, wxyz: list) -> None:
+        pose = np.array([*position, *wxyz], dtype=float)
+        if self._moved(key, pose):
+            handle.position = pose[0:3]
+            handle.wxyz = pose[3:7]
 
     def show_contemplated(self, target: Pose | None) -> None:
         self.contemplated.visible = target is not None

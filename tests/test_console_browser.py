@@ -1,0 +1,276 @@
+"""The operator console in a real browser (Debian Chromium driven by Playwright).
+
+Outside CI these skip when /usr/bin/chromium is missing; under CI=true its absence fails.
+The 3D scene is WebGL, which the DOM cannot see, so the console mirrors what it draws in its
+status lines (port position, telemetry age and sequence, commanded target), updated in the same
+atomic batch as the scene; the tests read those.
+"""
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import httpx
+import pytest
+
+from server.launcher import ServerProcess, free_port, running_console, running_proxy, running_server
+from web.browser import chromium_available, launch
+
+pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
+
+ARTIFACTS = Path(__file__).resolve().parent.parent / "artifacts"
+PORT_TEXT = re.compile(r"port \((-?[\d.]+), (-?[\d.]+), (-?[\d.]+)\) mm")
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[object]:
+    if not chromium_available():
+        if os.environ.get("CI") == "true":
+            pytest.fail("CI=true but /usr/bin/chromium is missing: .ci/run must apt-get install chromium")
+        pytest.skip("Debian's chromium is not installed (apt-get install chromium)")
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as playwright:
+        chromium = launch(playwright)
+        yield chromium
+        chromium.close()
+
+
+@pytest.fixture(scope="module")
+def stack() -> Iterator[tuple[ServerProcess, ServerProcess, ServerProcess]]:
+    with (
+        running_server("--scene", "free_space") as robot,
+        running_proxy(robot.url) as link,
+        running_console(link.url) as console,
+    ):
+        yield robot, link, console
+
+
+def open_console(browser: object, url: str):  # type: ignore[no-untyped-def]
+    page = browser.new_page(viewport={"width": 1500, "height": 950})  # type: ignore[attr-defined]
+    page.goto(url)
+    page.get_by_role("button", name="Send cmd").wait_for(timeout=60_000)
+    page.wait_for_function("document.querySelector('#ptwl-telemetry')?.dataset.seq > 0", timeout=30_000)
+    return page
+
+
+def inputs_for(page, label: str):  # type: ignore[no-untyped-def]
+    return page.locator(f"xpath=//*[normalize-space(text())='{label}']/ancestor::*[.//input][1]//input")
+
+
+def set_fields(page, label: str, *values: float) -> None:  # type: ignore[no-untyped-def]
+    boxes = inputs_for(page, label)
+    for i, value in enumerate(values):
+        boxes.nth(i).fill(str(value))
+        boxes.nth(i).press("Tab")
+
+
+def command_status(page) -> str:  # type: ignore[no-untyped-def]
+    return page.locator("#ptwl-command").get_attribute("data-status") or ""
+
+
+def wait_status(page, wanted: str, timeout_s: float = 30.0) -> None:  # type: ignore[no-untyped-def]
+    page.wait_for_function(
+        f"document.querySelector('#ptwl-command')?.dataset.status === '{wanted}'", timeout=timeout_s * 1000
+    )
+
+
+def port_mm(page) -> tuple[float, float, float]:  # type: ignore[no-untyped-def]
+    match = PORT_TEXT.search(page.locator("#ptwl-telemetry").inner_text())
+    assert match, page.locator("#ptwl-telemetry").inner_text()
+    return float(match[1]), float(match[2]), float(match[3])
+
+
+def reset(link: ServerProcess) -> None:
+    httpx.post(link.url + "/api/scene", json={"name": "free_space"}).raise_for_status()
+    httpx.put(link.url + "/_link/profile", json={"uplink": 0.0, "downlink": 0.0}).raise_for_status()
+
+
+def test_console_loads_with_the_three_tabs_and_the_preset_dropdown(browser, stack) -> None:  # type: ignore[no-untyped-def]
+    page = open_console(browser, stack[2].url)
+    assert page.get_by_role("tab").all_inner_texts()[:3] == ["PTWL", "RWE", "Dither"]
+    for label in (
+        "Translation [mm]",
+        "Rotation [deg]",
+        "Duration [s]",
+        "Force threshold [N]",
+        "Watchdog [s]",
+    ):
+        assert inputs_for(page, label).count() >= 1, label
+    assert inputs_for(page, "Translation [mm]").count() == 3
+    preset = inputs_for(page, "Stiffness preset").first
+    assert preset.input_value() == "medium"  # from config/console.toml
+    preset.click()
+    options = page.get_by_role("option").all_inner_texts()
+    assert {"stiff", "medium", "soft", "planar", "hinge"} <= set(options)
+    page.keyboard.press("Escape")
+    assert page.get_by_role("button", name="STOP").is_visible()
+    page.close()
+
+
+def test_ptwl_typed_and_sent_from_the_page_reaches_its_goal(browser, stack) -> None:  # type: ignore[no-untyped-def]
+    reset(stack[1])
+    page = open_console(browser, stack[2].url)
+    before = port_mm(page)
+    set_fields(page, "Translation [mm]", 0, 0, -20)  # tool z points down: 20 mm up
+    set_fields(page, "Duration [s]", 1.5)
+    page.get_by_role("button", name="Send cmd").click()
+    wait_status(page, "goal_reached")
+    time.sleep(1.0)
+    after = port_mm(page)
+    assert after[2] - before[2] == pytest.approx(20.0, abs=2.0)
+    assert "PTWL" in page.locator("#ptwl-command").inner_text()
+    page.close()
+
+
+def test_rwe_and_dither_from_the_page_end_with_their_exits(browser, stack) -> None:  # type: ignore[no-untyped-def]
+    reset(stack[1])
+    page = open_console(browser, stack[2].url)
+    page.get_by_role("tab", name="RWE").click()
+    page.get_by_role("button", name="Send RWE").click()
+    wait_status(page, "completed")
+    page.get_by_role("tab", name="Dither").click()
+    chooser = inputs_for(page, "Dither preset").first
+    chooser.click()
+    page.get_by_role("option", name="translational_pull").click()
+    set_fields(page, "Travel [mm]", 4)
+    page.get_by_role("button", name="Send dither").click()
+    wait_status(page, "goal_reached")
+    history = page.get_by_text("RWE", exact=False).all_inner_texts()
+    assert any("Dither" in text or "RWE" in text for text in history)
+    page.close()
+
+
+def test_two_second_round_trip_shows_intent_at_once_and_the_robot_later(browser, stack) -> None:  # type: ignore[no-untyped-def]
+    reset(stack[1])
+    link = stack[1]
+    page = open_console(browser, stack[2].url)
+    httpx.put(link.url + "/_link/profile", json={"uplink": 1.0, "downlink": 1.0}).raise_for_status()
+    page.wait_for_function(
+        "Number(document.querySelector('#ptwl-telemetry')?.dataset.age) > 0.9", timeout=10_000
+    )
+    time.sleep(0.5)
+    start = port_mm(page)
+    page.get_by_role("button", name="Send cmd").click()
+    # From when the click was delivered: Playwright's click() first waits for the button to be
+    # stable over several animation frames, which takes ~1 s with software WebGL.
+    t0 = time.monotonic()
+    page.locator("#ptwl-commanded").wait_for(timeout=2_000)
+    commanded_after = time.monotonic() - t0
+    moved_after = None
+    while time.monotonic() - t0 < 10.0:
+        if abs(port_mm(page)[2] - start[2]) > 0.2:
+            moved_after = time.monotonic() - t0
+            break
+        time.sleep(0.02)
+    age = float(page.locator("#ptwl-telemetry").get_attribute("data-age") or "nan")
+    time.sleep(0.6)
+    ARTIFACTS.mkdir(exist_ok=True)
+    page.screenshot(path=str(ARTIFACTS / "console-mid-task.png"))
+    wait_status(page, "goal_reached", timeout_s=15.0)
+    reset(link)
+    page.close()
+    assert commanded_after < 0.5  # the commanded target shows at once
+    assert moved_after is not None and moved_after >= 1.0  # the robot's port moves a round trip later
+    assert age == pytest.approx(1.0, abs=0.15)  # "robot state is ~1 s old"
+
+
+def test_a_command_from_one_browser_appears_in_another(browser, stack) -> None:  # type: ignore[no-untyped-def]
+    reset(stack[1])
+    first, second = open_console(browser, stack[2].url), open_console(browser, stack[2].url)
+    first.get_by_role("button", name="Send cmd").click()
+    wait_status(first, "goal_reached")
+    wait_status(second, "goal_reached", timeout_s=5.0)
+    assert first.locator("#ptwl-command").get_attribute("data-id") == second.locator(
+        "#ptwl-command"
+    ).get_attribute("data-id")
+    first.close()
+    second.close()
+
+
+def wait_text(page, text: str, timeout_s: float) -> None:  # type: ignore[no-untyped-def]
+    page.wait_for_function(
+        f"document.querySelector('#ptwl-telemetry')?.innerText.includes({text!r})", timeout=timeout_s * 1000
+    )
+
+
+def test_console_says_when_the_robot_restarts_and_reconnects(browser) -> None:  # type: ignore[no-untyped-def]
+    server_port = free_port()
+    with (
+        running_server("--scene", "free_space", port=server_port) as robot,
+        running_proxy(robot.url) as link,
+        running_console(link.url) as console,
+    ):
+        page = open_console(browser, console.url)
+        robot.stop()
+        wait_text(page, "telemetry lost", 15.0)
+        with running_server("--scene", "free_space", port=server_port):
+            wait_text(page, "robot state #", 20.0)
+            page.get_by_role("button", name="Send cmd").click()
+            wait_status(page, "goal_reached")
+        page.close()
+
+
+def test_console_says_when_the_link_restarts_and_reconnects(browser) -> None:  # type: ignore[no-untyped-def]
+    proxy_port = free_port()
+    with (
+        running_server("--scene", "free_space") as robot,
+        running_proxy(robot.url, port=proxy_port) as link,
+        running_console(link.url) as console,
+    ):
+        page = open_console(browser, console.url)
+        link.stop()
+        wait_text(page, "telemetry lost", 15.0)
+        with running_proxy(robot.url, port=proxy_port):
+            wait_text(page, "robot state #", 20.0)
+            page.get_by_role("button", name="Send cmd").click()
+            wait_status(page, "goal_reached")
+        page.close()
+
+
+def test_ptwl_up_starts_three_processes_and_stops_them(browser) -> None:  # type: ignore[no-untyped-def]
+    ports = [free_port(), free_port(), free_port()]
+    cmd = [sys.executable, "-m", "server.cli", "up", "--scene", "free_space"]
+    cmd += ["--server-port", str(ports[0]), "--proxy-port", str(ports[1]), "--console-port", str(ports[2])]
+    process = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    assert process.stdout is not None
+    lines = []
+    for line in process.stdout:
+        lines.append(line)
+        if line.startswith("ptwl up: open"):
+            break
+    assert f"ptwl up: open http://127.0.0.1:{ports[2]}" in lines[-1], "".join(lines)
+    page = open_console(browser, f"http://127.0.0.1:{ports[2]}")
+    page.get_by_role("button", name="Send cmd").click()
+    wait_status(page, "goal_reached")
+    page.close()
+    process.send_signal(signal.SIGINT)
+    assert process.wait(30) == 0
+    for port in ports:
+        with pytest.raises(httpx.TransportError):
+            httpx.get(f"http://127.0.0.1:{port}/", timeout=1.0)
+
+
+def test_ptwl_up_exits_naming_the_child_that_died() -> None:
+    ports = [free_port(), free_port(), free_port()]
+    cmd = [sys.executable, "-m", "server.cli", "up", "--scene", "free_space"]
+    cmd += ["--server-port", str(ports[0]), "--proxy-port", str(ports[1]), "--console-port", str(ports[2])]
+    process = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    assert process.stdout is not None
+    for line in process.stdout:
+        if line.startswith("ptwl up: open"):
+            break
+    subprocess.run(
+        ["pkill", "-f", f"proxy --upstream http://127.0.0.1:{ports[0]} --port {ports[1]}"], check=True
+    )
+    rest = process.stdout.read()
+    assert process.wait(30) == 1
+    assert "the link proxy exited" in rest
+    for port in ports:
+        with pytest.raises(httpx.TransportError):
+            httpx.get(f"http://127.0.0.1:{port}/", timeout=1.0)
