@@ -82,9 +82,11 @@ def cmd_console(args: argparse.Namespace) -> int:
     from server.config import is_loopback
     from web.cli import run_console
 
-    if not is_loopback(args.host) and not args.token:
+    if not is_loopback(args.host):
+        # viser has no login: anyone who reaches the page could drive the robot.
         raise ConfigError(
-            f"refusing to bind {args.host}: a non-loopback address needs an access token (--token)"
+            f"refusing to bind {args.host}: the console has no login of its own; keep it on 127.0.0.1 "
+            "and reach it through an SSH tunnel (ssh -L 8080:127.0.0.1:8080 host)"
         )
     run_console(args.robot, args.host, args.port, args.token or None)
     return 0

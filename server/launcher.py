@@ -76,7 +76,11 @@ def running(
     With `echo`, the child's output is also printed, each line prefixed with it."""
     cmd = [sys.executable, "-m", "server.cli", *ptwl_args]
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-    process = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
+    # Own process group: a terminal's Ctrl-C (sent to the whole foreground group) reaches only the
+    # parent, which then stops each child once; a second signal would make uvicorn force-exit.
+    process = subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env, process_group=0
+    )
     output: list[str] = []
     found = threading.Event()
     url: list[str] = []

@@ -49,6 +49,7 @@ class ConsoleApp:
         self._plot: deque[tuple[float, ...]] = deque()
         self._count = 0
         self.scene_name = ""
+        self._closed = False
         self.panel: Panel | None = None
         self.view: RobotView | None = None
         self.feed: TelemetryFeed | None = None
@@ -165,6 +166,8 @@ class ConsoleApp:
     # ------------------------------------------------------------ telemetry
     def _on_state(self, state: dict[str, Any], arrived: float) -> None:
         assert self.panel is not None and self.view is not None
+        if self._closed:
+            return
         with self._lock:
             self._state = state
             self._last_seq = state["seq"]
@@ -194,6 +197,8 @@ class ConsoleApp:
 
     def _on_command(self, message: dict[str, Any]) -> None:
         assert self.panel is not None
+        if self._closed:
+            return
         view, ended = self.history.event(message)
         if view is None:
             return
@@ -282,6 +287,7 @@ class ConsoleApp:
             client.add_notification(title, body, auto_close_seconds=6.0, color=color)
 
     def close(self) -> None:
+        self._closed = True
         if self.feed is not None:
             self.feed.stop()
         self.server.stop()

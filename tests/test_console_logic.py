@@ -1,0 +1,123 @@
+"""Console logic without a browser: target math, the gizmo and the fields, command history."""
+
+import subprocess
+import sys
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+import viser.transforms as tf
+
+from server.launcher import ServerProcess, free_port, running_proxy
+from web.app import ConsoleApp
+from web.history import CommandHistory
+from web.targets import displacement_to, ptwl_target
+
+PORT_POSE = (np.array([0.378, 0.0, 0.27]), np.array([0.0, 0.0, 1.0, 0.0]))  # tool z down
+
+
+@pytest.mark.parametrize("frame", ["tool", "base"])
+def test_gizmo_pose_maps_back_to_the_displacement_that_reaches_it(frame: str) -> None:
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        port = (rng.uniform(-0.5, 0.5, 3), tf.SO3.exp(rng.uniform(-2, 2, 3)).wxyz)
+        translation, rotation = rng.uniform(-0.1, 0.1, 3), rng.uniform(-1.0, 1.0, 3)
+        target = ptwl_target(port, translation, rotation, frame)
+        back_t, back_r = displacement_to(port, target, frame)
+        np.testing.assert_allclose(back_t, translation, atol=1e-9)
+        np.testing.assert_allclose(back_r, rotation, atol=1e-9)
+
+
+def test_tool_frame_follows_the_port_orientation() -> None:
+    # Tool z points down (port rotated 180 deg about y): +10 mm along tool z is 10 mm down.
+    position, _ = ptwl_target(PORT_POSE, np.array([0.0, 0.0, 0.01]), np.zeros(3), "tool")
+    np.testing.assert_allclose(position, [0.378, 0.0, 0.26], atol=1e-12)
+    position, _ = ptwl_target(PORT_POSE, np.array([0.0, 0.0, 0.01]), np.zeros(3), "base")
+    np.testing.assert_allclose(position, [0.378, 0.0, 0.28], atol=1e-12)
+
+
+def test_history_keeps_order_when_an_event_beats_its_202() -> None:
+    history = CommandHistory()
+    mine = history.sent("ptwl")
+    # Over a link, the `queued` and `running` events can arrive before the HTTP 202.
+    view, ended = history.event({"id": 7, "behavior": "ptwl", "status": "running"})
+    assert view is None and not ended
+    history.accepted(mine, 7)
+    assert mine.phase == "running" and mine.label == "#7"
+    view, ended = history.event(
+        {
+            "id": 7,
+            "behavior": "ptwl",
+            "status": "done",
+            "exit": "wrench_breach",
+            "peak_force": 21.5,
+            "peak_torque": 0.3,
+        }
+    )
+    assert view is mine and ended and mine.status == "wrench_breach"
+    other, _ = history.event({"id": 8, "behavior": "rwe", "status": "done", "exit": "completed"})
+    assert other is not None and other.behavior == "rwe"  # a command from someone else appears
+    refused = history.sent("dither")
+    history.refused(refused, "duration: must be in (0, 600] s, got -1")
+    counts = history.counts()
+    assert counts["ptwl"] == {"wrench_breach": 1} and counts["rwe"] == 1 and counts["dither"] == 0
+    assert counts["peak_force"] == 21.5
+
+
+@pytest.fixture(scope="module")
+def console(server: ServerProcess) -> Iterator[ConsoleApp]:
+    with running_proxy(server.url) as link:
+        app = ConsoleApp(link.url, port=free_port())
+        app.connect(timeout=30.0)
+        try:
+            yield app
+        finally:
+            app.close()
+
+
+def wait_for_state(app: ConsoleApp) -> None:
+    import time
+
+    deadline = time.monotonic() + 10
+    while app._port() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert app._port() is not None
+
+
+def test_fields_move_the_contemplated_ghost_and_the_gizmo(console: ConsoleApp) -> None:
+    wait_for_state(console)
+    panel = console.panel
+    assert panel is not None and console.view is not None
+    panel.show_gizmo.value = True
+    panel.frame.value = "base"
+    panel.translation.value = (20.0, -10.0, 5.0)  # mm
+    console._fields_changed()
+    port = console._port()
+    assert port is not None
+    np.testing.assert_allclose(console.gizmo.position, port[0] + [0.020, -0.010, 0.005], atol=2e-4)
+    np.testing.assert_allclose(console.view.contemplated.position, console.gizmo.position, atol=1e-9)
+    assert console.gizmo.visible
+
+
+def test_dragging_the_gizmo_fills_the_fields(console: ConsoleApp) -> None:
+    wait_for_state(console)
+    panel = console.panel
+    assert panel is not None
+    panel.frame.value = "base"
+    port = console._port()
+    assert port is not None
+    console.gizmo.position = port[0] + np.array([0.0, 0.03, -0.01])
+    console.gizmo.wxyz = (tf.SO3.from_z_radians(0.2) @ tf.SO3(port[1])).wxyz
+    console._gizmo_moved()
+    np.testing.assert_allclose(panel.translation.value, (0.0, 30.0, -10.0), atol=0.2)
+    np.testing.assert_allclose(panel.rotation.value, (0.0, 0.0, np.degrees(0.2)), atol=0.2)
+
+
+def test_console_refuses_a_non_loopback_bind() -> None:
+    result = subprocess.run(
+        [sys.executable, "-m", "server.cli", "console", "--host", "0.0.0.0"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 2 and "the console has no login of its own" in result.stderr
