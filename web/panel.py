@@ -82,29 +82,8 @@ class Panel:
         self.command_status = gui.add_html(_command_html(None))
 
         with gui.add_folder("Force / torque", expand_by_default=True):
-            empty = np.zeros(1)
-            self.force_plot = gui.add_uplot(
-                (empty, empty, empty, empty),
-                (
-                    {"label": "t [s]"},
-                    {"label": "fx [N]", "stroke": "#e03131"},
-                    {"label": "fy [N]", "stroke": "#2f9e44"},
-                    {"label": "fz [N]", "stroke": "#1971c2"},
-                ),
-                scales={"x": {"time": False}},
-                aspect=2.5,
-            )
-            self.torque_plot = gui.add_uplot(
-                (empty, empty, empty, empty),
-                (
-                    {"label": "t [s]"},
-                    {"label": "tx [N m]", "stroke": "#e03131"},
-                    {"label": "ty [N m]", "stroke": "#2f9e44"},
-                    {"label": "tz [N m]", "stroke": "#1971c2"},
-                ),
-                scales={"x": {"time": False}},
-                aspect=2.5,
-            )
+            self.force_plot = _xyz_plot(gui, "f", "N")
+            self.torque_plot = _xyz_plot(gui, "t", "N m")
         with gui.add_folder("Commands", expand_by_default=True):
             self.history = gui.add_markdown("No commands yet.")
         with gui.add_folder("Scene and link", expand_by_default=False):
@@ -179,6 +158,16 @@ class Panel:
 
     def show_command(self, view: Any) -> None:
         self.command_status.content = _command_html(view)
+
+
+def _xyz_plot(gui: Any, symbol: str, unit: str) -> Any:
+    """A time plot of x, y, z components (red, green, blue), empty until telemetry arrives."""
+    empty = np.zeros(1)
+    series = [{"label": "t [s]"}] + [
+        {"label": f"{symbol}{axis} [{unit}]", "stroke": color}
+        for axis, color in zip("xyz", ("#e03131", "#2f9e44", "#1971c2"), strict=True)
+    ]
+    return gui.add_uplot((empty,) * 4, tuple(series), scales={"x": {"time": False}}, aspect=2.5)
 
 
 def _set(handle: Any, value: Any) -> None:
