@@ -44,9 +44,10 @@ def test_rate_within_10_percent_and_sequence_increments_by_one(server: ServerPro
         assert all(b - a == 1 for a, b in itertools.pairwise(seqs))
         sim_times = [m["sim_time"] for _, m in states]
         assert all(b > a for a, b in itertools.pairwise(sim_times))
-        # sent_at is the server's wall clock as the message left: ~now on loopback.
-        ages = [t - m["sent_at"] for t, m in states]
-        assert max(ages) < 0.05 and min(ages) > -0.01
+        # sent_at is the server's wall clock as the message left: ~now on loopback. With 10
+        # clients parsing in this one Python process the tail is the test's, so: the median.
+        ages = sorted(t - m["sent_at"] for t, m in states)
+        assert ages[0] > -0.01 and ages[len(ages) // 2] < 0.01 and ages[-1] < 0.5
         first = states[0][1]
         assert {"port", "attractor", "wrench", "joint_positions", "active_command", "scene"} <= set(first)
 
