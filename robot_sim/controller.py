@@ -34,6 +34,7 @@ from robot_sim.arm import ArmLayout
 from robot_sim.errors import SimulationFault
 from robot_sim.gains import Gains
 from robot_sim.payload import Payload
+from robot_sim.pose_math import IDENTITY_QUAT, rotate_world
 
 # Damped least squares: lambda^2 grows from 0 to LAMBDA_MAX^2 as the manipulability
 # sqrt(det(J J^T)) falls below MANIPULABILITY_THRESHOLD (Chiaverini's singularity-robust
@@ -51,8 +52,6 @@ JOINT_ACCEL_LIMIT = np.array([40.0, 40.0, 40.0, 80.0, 80.0, 100.0])
 KINEMATICS_TICKS = 8
 FAST_REFRESH_MANIPULABILITY_RATIO = 2.0  # manipulability / MANIPULABILITY_THRESHOLD
 FAST_REFRESH_SPEED = 1.0  # |qdot| [rad/s]
-
-_IDENTITY_QUAT = np.array([1.0, 0.0, 0.0, 0.0])
 
 
 class AdmittanceController:
@@ -84,8 +83,8 @@ class AdmittanceController:
 
         # Attractor pose, base frame. Behaviors write these in place.
         self.p_world_attractor = np.zeros(3)  # [m]
-        self.q_world_attractor = _IDENTITY_QUAT.copy()  # [w x y z]
-        self.q_world_port = _IDENTITY_QUAT.copy()
+        self.q_world_attractor = IDENTITY_QUAT.copy()  # [w x y z]
+        self.q_world_port = IDENTITY_QUAT.copy()
 
         # The tick's signal vector and its two linear maps.
         self._v = np.zeros(13)
@@ -126,7 +125,6 @@ class AdmittanceController:
         self._q_tmp = np.zeros(4)
         self.manipulability = 0.0
         self.speed_scale = 1.0  # last uniform scale applied for joint speed limits (<= 1)
-        self.gains = gains
         self.set_gains(gains)
 
     # ----------------------------------------------------------------------------- gains
@@ -297,18 +295,3 @@ class AdmittanceController:
         mujoco.mju_mat2Quat(self.q_world_port, self._R_world_port_flat)
         mujoco.mju_add3(self.p_world_attractor, self.p_world_port, stretch_world[0:3])
         rotate_world(self.q_world_attractor, self.q_world_port, stretch_world[3:6], 1.0, self._q_tmp)
-
-
-def rotate_world(
-    q_out: np.ndarray, q_in: np.ndarray, rotvec_world: np.ndarray, scale: float, q_tmp: np.ndarray
-) -> None:
-    """q_out = exp(scale * rotvec_world) * q_in: rotate q_in about base axes (no allocation)."""
-    mujoco.mju_copy4(q_tmp, _IDENTITY_QUAT)
-    mujoco.mju_quatIntegrate(q_tmp, rotvec_world, scale)
-    mujoco.mju_mulQuat(q_out, q_tmp, q_in)
-
-
-def angle_between(q_a: np.ndarray, q_b: np.ndarray, tmp3: np.ndarray) -> float:
-    """Rotation angle [rad] taking q_b to q_a."""
-    mujoco.mju_subQuat(tmp3, q_a, q_b)
-    return mujoco.mju_norm3(tmp3)

@@ -26,14 +26,6 @@ _K_UNITS = ("N/m",) * 3 + ("N m/rad",) * 3
 _B_UNITS = ("N s/m",) * 3 + ("N m s/rad",) * 3
 
 
-def stable_range_text() -> str:
-    return (
-        f"stiffness in [0, {STIFFNESS_MAX[0]:g}] N/m and [0, {STIFFNESS_MAX[3]:g}] N m/rad; "
-        f"damping in [{DAMPING_MIN[0]:g}, {DAMPING_MAX[0]:g}] N s/m and "
-        f"[{DAMPING_MIN[3]:g}, {DAMPING_MAX[3]:g}] N m s/rad; damping/stiffness >= {MIN_TIME_CONSTANT_S:g} s"
-    )
-
-
 def check_gains(
     stiffness: "list[float] | tuple[float, ...]", damping: "list[float] | tuple[float, ...]"
 ) -> None:

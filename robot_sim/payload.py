@@ -22,6 +22,7 @@ import mujoco
 import numpy as np
 
 from robot_sim.arm import ArmLayout
+from robot_sim.pose_math import rotation_matrix
 
 
 def _skew(v: np.ndarray) -> np.ndarray:
@@ -43,9 +44,7 @@ class Payload:
         if model.body_subtreemass[body] != model.body_mass[body]:
             raise ValueError("the tool must be one welded body (no child bodies)")
         # Sensor and port sites are on the tool body; express both in the sensor frame.
-        R_flat = np.zeros(9)
-        mujoco.mju_quat2Mat(R_flat, model.site_quat[layout.ft_site])
-        R_body_ft = R_flat.reshape(3, 3)
+        R_body_ft = rotation_matrix(model.site_quat[layout.ft_site])
         p_body_ft = model.site_pos[layout.ft_site]
         com_ft = R_body_ft.T @ (model.body_ipos[body] - p_body_ft)
         port_ft = R_body_ft.T @ (model.site_pos[layout.port_site] - p_body_ft)

@@ -87,6 +87,7 @@ class Simulation:
         self.fault_count = 0
         self.last_fault: str | None = None
         self.controller: AdmittanceController
+        self.last_report: BehaviorReport | None = None  # kept across resets: how the last one ended
         self.reset(scene, seed, gains=gains if gains is not None else default_gains(), qpos=qpos)
 
     # ------------------------------------------------------------------------- scenes
@@ -123,7 +124,6 @@ class Simulation:
         self._behavior_started_at = 0.0
         self._peak_force = 0.0
         self._peak_torque = 0.0
-        self.last_report: BehaviorReport | None = None
 
     @property
     def time(self) -> float:
@@ -219,7 +219,6 @@ class Simulation:
         self.last_fault = message
         report = self._finish(ExitCondition.FAULT, message) if self.behavior is not None else None
         self.reset(self.scene.name, self.seed)
-        self.last_report = report if report is not None else self.last_report
         return report
 
     # -------------------------------------------------------------------------- state

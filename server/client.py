@@ -54,7 +54,9 @@ class RobotClient:
     def __enter__(self) -> Self:
         return self
 
-    def __exit__(self, *exc: "type[BaseException] | BaseException | TracebackType | None") -> None:
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
         self.close()
 
     def close(self) -> None:

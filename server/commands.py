@@ -7,7 +7,8 @@ method takes one lock, briefly; nothing here blocks on I/O or physics.
 import threading
 import time
 from collections import OrderedDict, deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import Any
 
 from robot_sim.behaviors import BehaviorParams, BehaviorReport
 from server.models import CommandStatus, PoseModel
@@ -24,6 +25,7 @@ class QueueFullError(Exception):
 class CommandRecord:
     id: int
     params: BehaviorParams
+    params_json: dict[str, Any]  # as validated, defaults filled in (dumped once)
     queued_at: float
     status: str = "queued"
     started_at: float | None = None
@@ -31,7 +33,6 @@ class CommandRecord:
     exit: str | None = None
     report: BehaviorReport | None = None
     detail: str = ""
-    _params_json: dict = field(default_factory=dict)
 
     def to_model(self) -> CommandStatus:
         r = self.report
@@ -40,7 +41,7 @@ class CommandRecord:
             type=self.params.type,
             status=self.status,
             exit=self.exit,
-            params=self._params_json or self.params.model_dump(),
+            params=self.params_json,
             queued_at=self.queued_at,
             started_at=self.started_at,
             ended_at=self.ended_at,
@@ -67,7 +68,7 @@ class CommandBook:
         with self._lock:
             if len(self._queue) >= self._queue_max:
                 raise QueueFullError(self._queue_max)
-            record = CommandRecord(self._next_id, params, time.time(), _params_json=params.model_dump())
+            record = CommandRecord(self._next_id, params, params.model_dump(), time.time())
             self._next_id += 1
             self._queue.append(record)
             self._records[record.id] = record

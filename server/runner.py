@@ -31,10 +31,6 @@ class _Request:
     reply: "Future[Any]"
 
 
-def _pose(p: Any) -> dict[str, list[float]]:
-    return p.as_dict()
-
-
 class SimRunner:
     def __init__(
         self,
@@ -155,8 +151,8 @@ class SimRunner:
         running = self.book.running
         return {
             "sim_time": state.sim_time,
-            "port": _pose(state.port),
-            "attractor": _pose(state.attractor),
+            "port": state.port.as_dict(),
+            "attractor": state.attractor.as_dict(),
             "wrench": list(state.wrench),
             "joint_positions": list(state.joint_positions),
             "active_command": running.id if running else None,

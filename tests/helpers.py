@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from robot_sim.controller import rotate_world
 from robot_sim.gains import Gains
+from robot_sim.pose_math import rotate_world
 from robot_sim.sim import Simulation
 
 # x y z [N/m, N s/m]; rx ry rz [N m/rad, N m s/rad]. Time constants 0.25 s and 0.4 s.

@@ -5,8 +5,8 @@ import pytest
 
 from robot_sim.behaviors.base import ExitCondition
 from robot_sim.behaviors.ptwl import Ptwl
-from robot_sim.controller import angle_between
 from robot_sim.params import PtwlParams
+from robot_sim.pose_math import angle_between
 from robot_sim.sim import Simulation
 
 GAP_TO_PLATE = 0.0466 - 0.008  # [m] port height above the plate at home minus the tip radius

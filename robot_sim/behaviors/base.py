@@ -51,6 +51,11 @@ class BehaviorReport:
         return self.ended_at - self.started_at
 
 
+def wrench_breached(ctl: AdmittanceController, force_threshold: float, torque_threshold: float) -> bool:
+    """|f| or |tau| on the port over its threshold this tick (checked before success: safety first)."""
+    return ctl.force_norm > force_threshold or ctl.torque_norm > torque_threshold
+
+
 class Behavior(ABC):
     """One compliant behavior; `update` runs every control tick after the port is measured."""
 

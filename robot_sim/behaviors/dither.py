@@ -20,9 +20,10 @@ import math
 import mujoco
 import numpy as np
 
-from robot_sim.behaviors.base import Behavior, ExitCondition
-from robot_sim.controller import AdmittanceController, rotate_world
+from robot_sim.behaviors.base import Behavior, ExitCondition, wrench_breached
+from robot_sim.controller import AdmittanceController
 from robot_sim.params import DitherParams
+from robot_sim.pose_math import rotate_world, rotation_matrix
 
 TRAVEL_TOLERANCE_M = 0.001
 
@@ -56,9 +57,7 @@ class Dither(Behavior):
         self._q_world_start[:] = ctl.q_world_port
         axis_tool = np.asarray(self.params.axis, dtype=float)
         axis_tool /= np.linalg.norm(axis_tool)
-        R_world_port = np.zeros(9)
-        mujoco.mju_quat2Mat(R_world_port, self._q_world_start)
-        self.axis_world[:] = R_world_port.reshape(3, 3) @ axis_tool
+        self.axis_world[:] = rotation_matrix(self._q_world_start) @ axis_tool
         self._e1[:], self._e2[:] = perpendicular_basis(self.axis_world)
         ctl.place_attractor_from_port(np.zeros(6))
 
@@ -69,7 +68,7 @@ class Dither(Behavior):
 
     def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:
         p = self.params
-        if ctl.force_norm > p.force_threshold or ctl.torque_norm > p.torque_threshold:
+        if wrench_breached(ctl, p.force_threshold, p.torque_threshold):
             return ExitCondition.WRENCH_BREACH
         if self.progress(ctl) >= p.travel - TRAVEL_TOLERANCE_M:
             return ExitCondition.GOAL_REACHED

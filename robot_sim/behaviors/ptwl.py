@@ -11,9 +11,10 @@ rotate about the port's origin.
 import mujoco
 import numpy as np
 
-from robot_sim.behaviors.base import Behavior, ExitCondition
-from robot_sim.controller import AdmittanceController, angle_between, rotate_world
+from robot_sim.behaviors.base import Behavior, ExitCondition, wrench_breached
+from robot_sim.controller import AdmittanceController
 from robot_sim.params import PtwlParams
+from robot_sim.pose_math import angle_between, rotate_world, rotation_matrix
 
 
 class Ptwl(Behavior):
@@ -44,9 +45,7 @@ class Ptwl(Behavior):
         translation = np.asarray(p.translation, dtype=float)
         rotation = np.asarray(p.rotation, dtype=float)
         if p.frame == "tool":
-            R_flat = np.zeros(9)
-            mujoco.mju_quat2Mat(R_flat, self._q_world_start)
-            R_world_port = R_flat.reshape(3, 3)
+            R_world_port = rotation_matrix(self._q_world_start)
             self._dp_world[:] = R_world_port @ translation
             self._rotvec_world[:] = R_world_port @ rotation
         else:
@@ -60,7 +59,7 @@ class Ptwl(Behavior):
 
     def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:
         p = self.params
-        if ctl.force_norm > p.force_threshold or ctl.torque_norm > p.torque_threshold:
+        if wrench_breached(ctl, p.force_threshold, p.torque_threshold):
             return ExitCondition.WRENCH_BREACH
         if (
             mujoco.mju_dist3(self.p_world_goal, ctl.p_world_port) <= p.position_tolerance

@@ -2,7 +2,7 @@
 
 from typing import Any
 
-from fastapi import APIRouter, Request
+from fastapi import APIRouter
 
 from robot_sim.presets import default_presets
 from server.auth import Authorized
@@ -44,7 +44,7 @@ async def task(_: Authorized, runner: Runner) -> TaskModel:
 
 
 @router.get("/presets")
-async def presets(_: Authorized, request: Request) -> dict[str, Any]:
+async def presets(_: Authorized) -> dict[str, Any]:
     """Stiffness/damping presets by name, `{name: {stiffness, damping}}`, plus the dither presets
     under `dither`."""
     loaded = default_presets()
