@@ -2,10 +2,11 @@
 
 Per control tick:
 
-    w      = wrench of the environment on the port, base axes (sensor, payload removed)
+    w      = wrench of the environment on the port, base axes (sensor, payload removed,
+             low-passed for control; the raw one is what behaviors check thresholds on)
     s      = stretch: attractor (-) port; position difference and rotation vector
-    t_des  = B^-1 (w + K s)                                   (eq. 5, K and B diagonal, base axes)
-    qdot   = J^T (J J^T + lambda^2 I)^-1 t_des                 (damped least squares)
+    t_des  = B^-1 (w + K s)                       (eq. 5, K and B diagonal in the gains' frame)
+    qdot   = J^T (J J^T + lambda^2 I)^-1 t_des     (damped least squares)
 
 then joint velocities are held to the joint speed and acceleration limits and tapered near
 joint limits, and sent to the joint servos (ctrl = qdot for the integrated-velocity and the
@@ -15,17 +16,19 @@ Multi-rate, because Python call overhead (~0.4 us a call) would otherwise cost m
 physics: the *signals* (raw wrench, stretch) are read every tick, and everything between them
 and the joint velocities is linear in them, so it is one precomposed (6, 13) matrix
 
-    qdot = Q v,   v = [raw sensor wrench (6), position stretch (3), rotation error in port axes (3), 1]
+    qdot = Q v,   v = [filtered sensor wrench (6), position stretch (3), rotation error in port axes (3), 1]
 
-where Q = P [G_w D | diag(K/B)_pos | diag(K/B)_rot R_port | G_w bias], P the DLS inverse,
-D and bias the payload-compensated sensor map rotated to base axes. Q depends only on the
-arm's configuration (J, sensor and port orientation) and is rebuilt every KINEMATICS_TICKS
+where Q = P [B^-1 D | B^-1 K_pos | B^-1 K_rot R_port | B^-1 bias], P the DLS inverse, D and
+bias the payload-compensated sensor map rotated to base axes, and B^-1, B^-1 K the diagonal
+gains turned from their frame's axes into base axes (R diag R^T; R = I for `base`, R_port for
+`tool`). Q depends only on the arm's configuration (J, sensor and port orientation) and is rebuilt every KINEMATICS_TICKS
 ticks (8 ms), or every tick while |qdot| > 1 rad/s or near a singularity: between rebuilds the
 configuration moves < 8 mrad, and < 1 mrad at quasi-static speeds. Wrench and stretch feedback
 stay at the full 1 kHz.
 """
 
 import math
+from enum import StrEnum
 
 import mujoco
 import numpy as np
@@ -52,6 +55,20 @@ JOINT_ACCEL_LIMIT = np.array([40.0, 40.0, 40.0, 80.0, 80.0, 100.0])
 KINEMATICS_TICKS = 8
 FAST_REFRESH_MANIPULABILITY_RATIO = 2.0  # manipulability / MANIPULABILITY_THRESHOLD
 FAST_REFRESH_SPEED = 1.0  # |qdot| [rad/s]
+# First-order low-pass on the F/T signal the admittance law uses [Hz]. Without it the loop
+# limit-cycles in stiff contact at low damping (see limits.py for the measured floors).
+# Thresholds are checked on the raw signal: a filter must never hide a breach.
+FT_CUTOFF_HZ = 100.0
+# Axes with stiffness below this hold no force: the balancing rule puts the attractor on the port.
+STIFFNESS_EPS = 1e-9
+
+
+class Limit(StrEnum):
+    """What held the commanded motion back this tick (reported as `limited: <value>`)."""
+
+    SINGULARITY = "singularity"  # the DLS damping is on (manipulability below threshold)
+    JOINT_LIMIT = "joint_limit"  # a joint is tapered to a stop near its range's end
+    SPEED = "speed"  # a joint hit its datasheet speed: the whole motion was scaled down
 
 
 class AdmittanceController:
@@ -65,7 +82,16 @@ class AdmittanceController:
         payload: Payload,
         gains: Gains,
         control_dt: float,
+        ft_cutoff_hz: float | None = FT_CUTOFF_HZ,
     ) -> None:
+        """Args:
+        model, data: the compiled scene and its state (views into data are kept).
+        layout: where the arm is in the model.
+        payload: the tool below the sensor, compensated out of the reading.
+        gains: stiffness/damping and their frame.
+        control_dt: control period [s].
+        ft_cutoff_hz: low-pass cutoff on the F/T signal used for control [Hz]; None: unfiltered.
+        """
         self.model = model
         self.data = data
         self.layout = layout
@@ -89,12 +115,20 @@ class AdmittanceController:
         # The tick's signal vector and its two linear maps.
         self._v = np.zeros(13)
         self._v[12] = 1.0  # bias column: payload weight
-        self._v_raw = self._v[0:6]
+        self._v_ft = self._v[0:6]  # low-passed raw sensor reading
+        self._v_meas = np.zeros(13)  # [raw reading, zeros, 1]: the unfiltered wrench
+        self._v_meas[12] = 1.0
+        self._v_meas_raw = self._v_meas[0:6]
+        self._ft_delta = np.zeros(6)
+        self.ft_cutoff_hz = ft_cutoff_hz
+        self._ft_alpha = (
+            1.0 if ft_cutoff_hz is None else 1.0 - math.exp(-2 * math.pi * ft_cutoff_hz * control_dt)
+        )
         self._v_stretch_pos = self._v[6:9]  # [m] base axes
         self._v_rot_err_port = self._v[9:12]  # [rad] port axes
         self._wrench_map = np.zeros((6, 13))  # v -> w_world_env_on_port
         self._qdot_map = np.zeros((6, 13))  # v -> qdot (Q)
-        self.w_world_env_on_port = np.zeros(6)  # [N, N m] base axes, torque about the port
+        self.w_world_env_on_port = np.zeros(6)  # [N, N m] base axes, torque about the port, raw
         self._w_force = self.w_world_env_on_port[0:3]
         self._w_torque = self.w_world_env_on_port[3:6]
         self.force_norm = 0.0  # |f| [N] this tick
@@ -107,6 +141,12 @@ class AdmittanceController:
         self._g_ft = np.zeros(3)
         self._twist_map = np.zeros((6, 13))
         self._rot_block = np.zeros((3, 3))
+        self._R_gains = np.eye(3)  # gains' axes in base axes: I (base) or R_world_port (tool)
+        self._tmp33 = np.zeros((3, 3))
+        self._inv_b_pos = np.zeros((3, 3))  # B^-1 and B^-1 K blocks in base axes
+        self._inv_b_rot = np.zeros((3, 3))
+        self._kb_pos = np.zeros((3, 3))
+        self._kb_rot = np.zeros((3, 3))
         self._jac_t = np.zeros((6, 6))
         self._dls_inverse = np.zeros((6, 6))  # P, (6 joints, 6 twist components)
         self._chol = np.zeros((6, 6))
@@ -125,17 +165,18 @@ class AdmittanceController:
         self._q_tmp = np.zeros(4)
         self.manipulability = 0.0
         self.speed_scale = 1.0  # last uniform scale applied for joint speed limits (<= 1)
+        self.limited: Limit | None = None  # what held the motion back this tick, if anything
         self.set_gains(gains)
 
     # ----------------------------------------------------------------------------- gains
     def set_gains(self, gains: Gains) -> None:
         """Take new stiffness/damping; the attractor stays, so the virtual wrench may step."""
         self.gains = gains
-        self._inv_damping = 1.0 / gains.damping
-        self._inv_damping_col = self._inv_damping[:, None].copy()
-        k_over_b = gains.stiffness * self._inv_damping
-        self._k_over_b_rot_col = k_over_b[3:6, None].copy()
-        self._k_over_b_pos_diag = np.diag(k_over_b[0:3])
+        self._inv_damping = 1.0 / gains.damping  # (6,) gains' axes
+        self._k_over_b = gains.stiffness * self._inv_damping
+        self._tool_frame_gains = gains.frame == "tool"
+        if not self._tool_frame_gains:
+            self._R_gains[:] = np.eye(3)
         self.refresh_kinematics()
 
     # ---------------------------------------------------------------------- kinematics
@@ -187,21 +228,42 @@ class AdmittanceController:
         for i in range(6):
             mujoco.mju_cholSolve(P[i], chol, self._jac_t[i])
 
-        # Q = P [B^-1 wmap + (K/B) stretch columns]; the rotation error arrives in port axes.
+        # Q = P [B^-1 wmap + B^-1 K stretch columns]; the rotation error arrives in port axes.
+        R_port = self._R_world_port_flat.reshape(3, 3)
+        if self._tool_frame_gains:
+            self._R_gains[:] = R_port
+        self._to_base(self._inv_damping[0:3], self._inv_b_pos)
+        self._to_base(self._inv_damping[3:6], self._inv_b_rot)
+        self._to_base(self._k_over_b[0:3], self._kb_pos)
+        self._to_base(self._k_over_b[3:6], self._kb_rot)
         tmap = self._twist_map
-        np.multiply(wmap, self._inv_damping_col, out=tmap)  # stretch columns of wmap are 0
-        tmap[0:3, 6:9] = self._k_over_b_pos_diag
-        np.multiply(self._R_world_port_flat.reshape(3, 3), self._k_over_b_rot_col, out=self._rot_block)
+        np.dot(self._inv_b_pos, wmap[0:3], out=tmap[0:3])  # stretch columns of wmap are 0
+        np.dot(self._inv_b_rot, wmap[3:6], out=tmap[3:6])
+        tmap[0:3, 6:9] = self._kb_pos
+        np.dot(self._kb_rot, R_port, out=self._rot_block)
         tmap[3:6, 9:12] = self._rot_block
         np.dot(P, tmap, out=self._qdot_map)
 
+    def _to_base(self, diagonal: np.ndarray, out: np.ndarray) -> None:
+        """out = R diag(diagonal) R^T: a diagonal in the gains' axes, in base axes (3, 3)."""
+        R = self._R_gains
+        np.multiply(R, diagonal, out=self._tmp33)
+        np.dot(self._tmp33, R.T, out=out)
+
     # ------------------------------------------------------------------------ measuring
     def measure(self) -> None:
-        """Compensated wrench and its magnitudes from the current MjData."""
-        self._v_raw[:] = self._raw_wrench_ft
-        self._wrench_map.dot(self._v, out=self.w_world_env_on_port)
+        """Raw compensated wrench and its magnitudes; the low-passed reading for control."""
+        raw = self._raw_wrench_ft
+        self._v_meas_raw[:] = raw
+        self._wrench_map.dot(self._v_meas, out=self.w_world_env_on_port)
         self.force_norm = mujoco.mju_norm3(self._w_force)
         self.torque_norm = mujoco.mju_norm3(self._w_torque)
+        mujoco.mju_sub(self._ft_delta, raw, self._v_ft)
+        mujoco.mju_addToScl(self._v_ft, self._ft_delta, self._ft_alpha)
+
+    def control_wrench(self) -> np.ndarray:
+        """(6,) the low-passed compensated wrench the admittance law uses [N, N m], base axes."""
+        return self._wrench_map @ self._v  # stretch columns of the wrench map are zero
 
     def measure_stretch(self) -> None:
         """Position stretch (base axes) and rotation error (port axes) into the signal vector."""
@@ -214,10 +276,33 @@ class AdmittanceController:
         R_port = self._R_world_port_flat.reshape(3, 3)
         return np.concatenate([self._v_stretch_pos, R_port @ self._v_rot_err_port])
 
+    def gains_rotation(self) -> np.ndarray:
+        """(3, 3) the gains' axes in base axes: I for `base`, the port's rotation for `tool`."""
+        if self.gains.frame == "tool":
+            return self._R_world_port_flat.reshape(3, 3).copy()
+        return np.eye(3)
+
+    def _diag_world(self, diagonal: np.ndarray) -> np.ndarray:
+        """(6, 6) blockdiag(R diag R^T) of a (6,) diagonal in the gains' axes."""
+        R = self.gains_rotation()
+        out = np.zeros((6, 6))
+        out[0:3, 0:3] = R @ np.diag(diagonal[0:3]) @ R.T
+        out[3:6, 3:6] = R @ np.diag(diagonal[3:6]) @ R.T
+        return out
+
+    def stiffness_world(self) -> np.ndarray:
+        """(6, 6) K in base axes [N/m, N m/rad]."""
+        return self._diag_world(self.gains.stiffness)
+
+    def damping_world(self) -> np.ndarray:
+        """(6, 6) B in base axes [N s/m, N m s/rad]."""
+        return self._diag_world(self.gains.damping)
+
     def twist_des(self) -> np.ndarray:
         """(6,) eq. 5's desired twist [m/s, rad/s], base axes, from the last signals."""
         s = self.stretch_world()
-        return self._inv_damping * (self.w_world_env_on_port + self.gains.stiffness * s)
+        w = self.control_wrench()
+        return self._diag_world(self._inv_damping) @ (w + self.stiffness_world() @ s)
 
     # ---------------------------------------------------------------------------- ticks
     def command(self) -> None:
@@ -232,12 +317,14 @@ class AdmittanceController:
         self._qdot_map.dot(self._v, out=qdot)
         # Slow commands far from limits and singularities need no limiting (the common case).
         if mujoco.mju_norm(qdot) > FAST_REFRESH_SPEED or self._refresh_every_tick or self._near_joint_limit:
-            self._limit_joint_motion(qdot, previous=self._ctrl_vel)
+            self.limited = self._limit_joint_motion(qdot, previous=self._ctrl_vel)
         else:
             self.speed_scale = 1.0
+            self.limited = None
         self._ctrl_vel[:] = qdot
 
-    def _limit_joint_motion(self, qdot: np.ndarray, previous: np.ndarray) -> None:
+    def _limit_joint_motion(self, qdot: np.ndarray, previous: np.ndarray) -> Limit | None:
+        """Hold qdot to the drives' limits in place; what held the motion back, if anything."""
         # Speed: one scale for all joints keeps the Cartesian direction.
         peak = float(np.max(np.abs(qdot) * self._inv_speed_limit))
         self.speed_scale = 1.0 if peak <= 1.0 else 1.0 / peak
@@ -246,22 +333,33 @@ class AdmittanceController:
         # Acceleration: as a drive would, so the DLS taking over near a singularity (or a
         # sudden attractor jump) decelerates the arm over tens of ms instead of a few.
         np.clip(qdot, previous - self._max_dqdot, previous + self._max_dqdot, out=qdot)
-        if self._near_joint_limit:
-            self._taper_at_joint_limits(qdot)
+        tapered = self._near_joint_limit and self._taper_at_joint_limits(qdot)
+        if self.manipulability < MANIPULABILITY_THRESHOLD:
+            return Limit.SINGULARITY
+        if tapered:
+            return Limit.JOINT_LIMIT
+        return Limit.SPEED if peak > 1.0 else None
 
-    def _taper_at_joint_limits(self, qdot: np.ndarray) -> None:
-        """Slow each joint toward its limit linearly over the last margin: it stops, never hits."""
+    def _taper_at_joint_limits(self, qdot: np.ndarray) -> bool:
+        """Slow each joint toward its limit linearly over the last margin: it stops, never hits.
+
+        Returns whether any joint was slowed.
+        """
         q = self._qpos
         lo = self.layout.joint_range[:, 0]
         hi = self.layout.joint_range[:, 1]
         vmax = self.layout.joint_speed_limit
+        slowed = False
         for i in range(6):
             if qdot[i] > 0.0:
-                room = (hi[i] - q[i]) / JOINT_LIMIT_MARGIN_RAD
-                qdot[i] = min(qdot[i], vmax[i] * max(0.0, min(1.0, room)))
+                cap = vmax[i] * max(0.0, min(1.0, (hi[i] - q[i]) / JOINT_LIMIT_MARGIN_RAD))
+                if qdot[i] > cap:
+                    qdot[i], slowed = cap, True
             elif qdot[i] < 0.0:
-                room = (q[i] - lo[i]) / JOINT_LIMIT_MARGIN_RAD
-                qdot[i] = max(qdot[i], -vmax[i] * max(0.0, min(1.0, room)))
+                cap = vmax[i] * max(0.0, min(1.0, (q[i] - lo[i]) / JOINT_LIMIT_MARGIN_RAD))
+                if qdot[i] < -cap:
+                    qdot[i], slowed = -cap, True
+        return slowed
 
     @property
     def qdot_cmd(self) -> np.ndarray:
@@ -270,19 +368,26 @@ class AdmittanceController:
 
     # ------------------------------------------------------------------ attractor moves
     def enable(self) -> None:
-        """Start compliance bumplessly: place the attractor so K s balances the measured wrench.
-
-        In equilibrium w + K s = 0, so s = -K^-1 w; on axes with (near) zero stiffness no
-        stretch can hold a force and the attractor is put on the port there.
-        """
+        """Start compliance bumplessly: place the attractor so K s balances the measured wrench."""
         self.refresh_kinematics()
         self.measure()
-        self.measure_stretch()
-        k = self.gains.stiffness
-        stretch = np.where(k > 1e-9, -self.w_world_env_on_port / np.maximum(k, 1e-9), 0.0)
-        self.place_attractor_from_port(stretch)
-        self.measure_stretch()
+        self._v_ft[:] = self._raw_wrench_ft  # the filter starts from the reading, not from zero
+        self.balance(self.control_wrench())
         self.enabled = True
+
+    def balance(self, w_world: np.ndarray) -> None:
+        """Place the attractor so the virtual wrench K s balances `w_world` (6,) [N, N m].
+
+        The one rule behind a bumpless start, STOP and `on_breach: limit`: in equilibrium
+        w + K s = 0, so s = -K^-1 w, solved in the gains' axes where K is diagonal. On axes with
+        (near) zero stiffness no stretch can hold a force and the attractor goes on the port.
+        """
+        R = self.gains_rotation()
+        k = self.gains.stiffness
+        w_gains = np.concatenate([R.T @ w_world[0:3], R.T @ w_world[3:6]])
+        s_gains = np.where(k > STIFFNESS_EPS, -w_gains / np.maximum(k, STIFFNESS_EPS), 0.0)
+        self.place_attractor_from_port(np.concatenate([R @ s_gains[0:3], R @ s_gains[3:6]]))
+        self.measure_stretch()
 
     def disable(self) -> None:
         """Position hold: the servos keep their last integrated reference."""

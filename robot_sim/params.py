@@ -18,7 +18,7 @@ from pydantic import (
 
 from robot_sim import limits
 from robot_sim.errors import UnknownNameError
-from robot_sim.gains import Gains
+from robot_sim.gains import Gains, GainsFrame
 
 AxisName = Literal["x", "y", "z", "rx", "ry", "rz"]
 AXIS_NAMES: tuple[AxisName, ...] = ("x", "y", "z", "rx", "ry", "rz")
@@ -71,11 +71,21 @@ class StrictModel(BaseModel):
     model_config = ConfigDict(allow_inf_nan=False, extra="forbid")
 
 
+OnBreach = Literal["limit", "freeze"]
+OnBreachField = Field(
+    "limit",
+    description="where the attractor goes on a wrench breach: `limit` holds the threshold (default); "
+    "`freeze` leaves it where it was (the paper's rule: the held force can pass the threshold)",
+)
+GAINS_FRAME_DOC = "axes K and B are diagonal in: `base`, or `tool` (the port's axes, turning with it)"
+
+
 class GainsSpec(StrictModel):
-    """Diagonal stiffness and damping, base axes x y z rx ry rz, within the stable range."""
+    """Diagonal stiffness and damping on axes x y z rx ry rz of `frame`, within the stable range."""
 
     stiffness: Vec6 = Field(description="[N/m x3, N m/rad x3], >= 0; see limits.py for the range")
     damping: Vec6 = Field(description="[N s/m x3, N m s/rad x3], > 0; see limits.py for the range")
+    frame: GainsFrame = Field("base", description=GAINS_FRAME_DOC)
 
     @model_validator(mode="after")
     def _stable(self) -> Self:
@@ -83,7 +93,7 @@ class GainsSpec(StrictModel):
         return self
 
     def to_gains(self) -> Gains:
-        return Gains.of(self.stiffness, self.damping)
+        return Gains.of(self.stiffness, self.damping, self.frame)
 
 
 class PtwlParams(StrictModel):
@@ -103,9 +113,13 @@ class PtwlParams(StrictModel):
     position_tolerance: Threshold = Field(0.002, description="[m] goal_reached when within this")
     orientation_tolerance: Threshold = Field(0.02, description="[rad] and within this")
     watchdog: Duration | None = Field(None, description="[s] timeout; >= duration; default duration + 5")
+    on_breach: OnBreach = OnBreachField
     preset: str | None = Field(None, description="stiffness/damping preset name")
     stiffness: Vec6 | None = Field(None, description="explicit [N/m x3, N m/rad x3], with damping")
     damping: Vec6 | None = Field(None, description="explicit [N s/m x3, N m s/rad x3], with stiffness")
+    gains_frame: GainsFrame | None = Field(
+        None, description=GAINS_FRAME_DOC + "; default: the preset's, else base (explicit), else unchanged"
+    )
 
     @model_validator(mode="after")
     def _consistent(self) -> Self:
@@ -116,8 +130,11 @@ class PtwlParams(StrictModel):
         _check_gains_choice(self.preset, self.stiffness, self.damping)
         return self
 
-    def gains(self) -> Gains | None:
-        return _resolve_gains(self.preset, self.stiffness, self.damping)
+    def gains(self, current: Gains) -> Gains:
+        """The gains for this move: the preset's or the explicit ones, else `current`; in
+        `gains_frame` when given."""
+        chosen = _resolve_gains(self.preset, self.stiffness, self.damping) or current
+        return chosen if self.gains_frame is None else chosen.in_frame(self.gains_frame)
 
 
 class RweParams(StrictModel):
@@ -128,6 +145,9 @@ class RweParams(StrictModel):
         default_factory=lambda: list(AXIS_NAMES), min_length=1, description="axes to relieve"
     )
     duration: Duration = Field(1.0, description="[s] how long the attractor tracks the port, (0, 600]")
+    frame: Literal["base", "tool"] = Field(
+        "base", description="axes of `axes`: base, or the port's axes at start"
+    )
     force_residual: Threshold = Field(1.0, description="[N] relieved when |f| on the axes is below")
     torque_residual: Threshold = Field(0.1, description="[N m] and |tau| on the axes is below")
 
@@ -146,15 +166,17 @@ class DitherParams(StrictModel):
 
     type: Literal["dither"] = Field("dither", description="behavior: dither")
     preset: str | None = Field(None, description="one of the dither presets; other fields override it")
-    mode: Literal["torsional", "translational"] = Field(
-        "torsional", description="torsional: conical wobble of the orientation; translational: circles"
+    mode: Literal["torsional", "translational", "conical"] = Field(
+        "torsional",
+        description="torsional: turn back and forth about the axis (paper); translational: origin "
+        "circles the axis; conical: the orientation's axis wobbles in a cone about the axis",
     )
     direction: Literal["push", "pull"] = Field("push", description="advance along the axis, or retreat")
     axis: Annotated[Vec3, _vector(math.inf, "", nonzero=True)] = Field(
         default_factory=lambda: [0.0, 0.0, 1.0], description="tool frame direction (normalized)"
     )
     amplitude: Annotated[float, _range(0.0, limits.MAX_DITHER_AMPLITUDE, "rad or m", lo_open=True)] = Field(
-        0.03, description="[rad] tilt (torsional) or [m] circle radius (translational)"
+        0.03, description="[rad] turn (torsional) or tilt (conical), or [m] circle radius (translational)"
     )
     frequency: Annotated[float, _range(0.0, limits.MAX_DITHER_FREQUENCY_HZ, "Hz", lo_open=True)] = Field(
         1.0, description="[Hz] wiggle frequency"
@@ -166,6 +188,7 @@ class DitherParams(StrictModel):
     force_threshold: Threshold = Field(30.0, description="[N]")
     torque_threshold: Threshold = Field(3.0, description="[N m]")
     watchdog: Duration | None = Field(None, description="[s] >= duration; default duration + 5")
+    on_breach: OnBreach = OnBreachField
 
     @model_validator(mode="before")
     @classmethod

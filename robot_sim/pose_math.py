@@ -26,3 +26,14 @@ def rotation_matrix(quat: np.ndarray) -> np.ndarray:
     flat = np.zeros(9)
     mujoco.mju_quat2Mat(flat, np.asarray(quat, dtype=float))
     return flat.reshape(3, 3)
+
+
+def rotvec_from_to(q_from: np.ndarray, q_to: np.ndarray) -> np.ndarray:
+    """(3,) base-axes rotation vector r [rad] with q_to = exp(r) * q_from (allocates)."""
+    q_inv = np.zeros(4)
+    q_rel = np.zeros(4)
+    mujoco.mju_negQuat(q_inv, np.asarray(q_from, dtype=float))
+    mujoco.mju_mulQuat(q_rel, np.asarray(q_to, dtype=float), q_inv)
+    out = np.zeros(3)
+    mujoco.mju_quat2Vel(out, q_rel, 1.0)
+    return out

@@ -20,7 +20,7 @@ import numpy as np
 
 from robot_sim.arm import ArmLayout
 from robot_sim.behaviors.base import Behavior, BehaviorReport, ExitCondition, Pose
-from robot_sim.controller import AdmittanceController
+from robot_sim.controller import FT_CUTOFF_HZ, AdmittanceController, Limit
 from robot_sim.errors import RobotSimError, SimulationFault
 from robot_sim.gains import Gains
 from robot_sim.model import PHYSICS_TIMESTEP_S, build_model
@@ -47,6 +47,7 @@ class RobotState:
     manipulability: float
     scene: str
     behavior: str | None
+    limited: str | None  # what holds the motion back now (singularity, joint_limit, speed)
 
 
 def _warnings(data: mujoco.MjData) -> str:
@@ -64,6 +65,12 @@ def _pose(position: np.ndarray, quaternion: np.ndarray) -> Pose:
     return Pose(p, q)
 
 
+def limited_detail(limited_s: "dict[Limit, float]") -> str:
+    """`limited: singularity (1.20 s), speed (0.05 s)`: what held the port back, longest first."""
+    parts = sorted(limited_s.items(), key=lambda item: -item[1])
+    return "limited: " + ", ".join(f"{limit.value} ({seconds:.2f} s)" for limit, seconds in parts)
+
+
 class Simulation:
     """A scene with the arm under admittance control, running one behavior at a time."""
 
@@ -75,7 +82,16 @@ class Simulation:
         gains: Gains | None = None,
         control_hz: float = 1000.0,
         qpos: "tuple[float, ...] | None" = None,
+        ft_cutoff_hz: float | None = FT_CUTOFF_HZ,
     ) -> None:
+        """Args:
+        scene: a name from robot_sim.scenes.SCENES.
+        seed: jitters the scene's fixture (None: nominal layout).
+        gains: initial stiffness/damping (default: the config's default preset).
+        control_hz: control rate [Hz], >= 500 and a divisor of the 1 kHz physics rate.
+        qpos: initial joint positions [rad] (default: the scene's home).
+        ft_cutoff_hz: low-pass cutoff on the F/T signal the controller uses [Hz]; None: raw.
+        """
         substeps = 1.0 / (control_hz * PHYSICS_TIMESTEP_S)
         if control_hz < 500.0 or abs(substeps - round(substeps)) > 1e-9:
             raise RobotSimError(
@@ -84,6 +100,7 @@ class Simulation:
             )
         self.n_substeps = round(substeps)
         self.control_dt = self.n_substeps * PHYSICS_TIMESTEP_S
+        self.ft_cutoff_hz = ft_cutoff_hz
         self.fault_count = 0
         self.last_fault: str | None = None
         self.controller: AdmittanceController
@@ -118,12 +135,15 @@ class Simulation:
         self.layout = layout
         self.payload = Payload.from_model(model, layout)
         keep: Gains = gains if gains is not None else self.controller.gains
-        self.controller = AdmittanceController(model, data, layout, self.payload, keep, self.control_dt)
+        self.controller = AdmittanceController(
+            model, data, layout, self.payload, keep, self.control_dt, self.ft_cutoff_hz
+        )
         self.controller.enable()
         self.behavior: Behavior | None = None
         self._behavior_started_at = 0.0
         self._peak_force = 0.0
         self._peak_torque = 0.0
+        self._limited_s: dict[Limit, float] = {}  # [s] per limit, while the behavior ran
 
     @property
     def time(self) -> float:
@@ -145,6 +165,8 @@ class Simulation:
                     self._peak_force = ctl.force_norm
                 if ctl.torque_norm > self._peak_torque:
                     self._peak_torque = ctl.torque_norm
+                if ctl.limited is not None:
+                    self._limited_s[ctl.limited] = self._limited_s.get(ctl.limited, 0.0) + self.control_dt
                 exit_condition = behavior.update(ctl, now)
                 if exit_condition is not None:
                     report = self._finish(exit_condition)
@@ -168,14 +190,20 @@ class Simulation:
 
     # ---------------------------------------------------------------------- behaviors
     def start(self, behavior: Behavior) -> None:
-        """Start `behavior` now, preempting (aborting) any running one."""
+        """Start `behavior` now, preempting (aborting) any running one.
+
+        The behavior starts from the attractor where it is, so nothing jumps: a held force
+        carries into the new command.
+        """
         if self.behavior is not None:
             self.abort()
-        self.controller.enabled = True
+        if not self.controller.enabled:
+            self.controller.enable()  # bumpless from position hold
         self.behavior = behavior
         self._behavior_started_at = self.time
         self._peak_force = 0.0
         self._peak_torque = 0.0
+        self._limited_s = {}
         behavior.start(self.controller, self.time)
 
     def abort(self, detail: str = "aborted") -> BehaviorReport | None:
@@ -198,6 +226,8 @@ class Simulation:
     def _finish(self, exit_condition: ExitCondition, detail: str = "") -> BehaviorReport:
         assert self.behavior is not None
         ctl = self.controller
+        if not detail and self._limited_s:
+            detail = limited_detail(self._limited_s)
         report = BehaviorReport(
             behavior=self.behavior.kind,
             exit=exit_condition,
@@ -233,14 +263,23 @@ class Simulation:
             manipulability=ctl.manipulability,
             scene=self.scene.name,
             behavior=self.behavior.kind if self.behavior is not None else None,
+            limited=ctl.limited.value if ctl.limited is not None else None,
         )
 
     def task(self) -> TaskProgress:
         return self.scene.predicate(self)
 
     def hold_position(self) -> BehaviorReport | None:
-        """Stop: end any behavior `aborted` and put the attractor on the port pose."""
+        """Stop: end any behavior `aborted` and hold the port where it is.
+
+        The attractor goes where its virtual wrench balances the measured one (the bumpless
+        rule): in free space that is the port pose, so motion stops; in contact the held force
+        stays, so STOP never jerks a press off or into a surface.
+        """
         report = self.abort("stopped")
-        self.controller.place_attractor_from_port(np.zeros(6))
-        self.controller.enabled = True
+        ctl = self.controller
+        if ctl.enabled:
+            ctl.balance(ctl.control_wrench())
+        else:
+            ctl.enable()
         return report

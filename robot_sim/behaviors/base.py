@@ -1,15 +1,18 @@
 """What every behavior shares: exit conditions, the report, and the interface the runner drives.
 
 A behavior only moves the attractor (and may set stiffness/damping at its start); the
-admittance controller does the rest. It ends with exactly one exit condition, after which the
-attractor stays frozen where it was.
+admittance controller does the rest. It starts from the attractor where it is (never jumps it)
+and ends with exactly one exit condition, after which the attractor stays where it was, except
+after a wrench breach with `on_breach: limit`, where it is placed to hold the threshold.
 """
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from enum import StrEnum
+import numpy as np
 
 from robot_sim.controller import AdmittanceController
+from robot_sim.params import OnBreach
 
 
 class ExitCondition(StrEnum):
@@ -56,6 +59,26 @@ def wrench_breached(ctl: AdmittanceController, force_threshold: float, torque_th
     return ctl.force_norm > force_threshold or ctl.torque_norm > torque_threshold
 
 
+def end_breach(
+    ctl: AdmittanceController, on_breach: OnBreach, force_threshold: float, torque_threshold: float
+) -> ExitCondition:
+    """What a breach does to the attractor; returns WRENCH_BREACH.
+
+    `freeze` (the paper's literal rule): the attractor stays where it was, and the force it
+    holds is whatever it had built up, about B v past the threshold at approach speed v.
+    `limit` (default): the measured wrench is clipped to the thresholds and the attractor is
+    placed to balance that (the bumpless rule), so the held force settles at the threshold.
+    """
+    if on_breach == "limit":
+        w = ctl.w_world_env_on_port.copy()
+        for block, threshold in ((slice(0, 3), force_threshold), (slice(3, 6), torque_threshold)):
+            norm = float(np.linalg.norm(w[block]))
+            if norm > threshold:
+                w[block] *= threshold / norm
+        ctl.balance(w)
+    return ExitCondition.WRENCH_BREACH
+
+
 class Behavior(ABC):
     """One compliant behavior; `update` runs every control tick after the port is measured."""
 
@@ -63,7 +86,7 @@ class Behavior(ABC):
 
     @abstractmethod
     def start(self, ctl: AdmittanceController, t: float) -> None:
-        """Take the port pose at start and set up the attractor's motion."""
+        """Take the port and attractor poses at start and set up the attractor's motion."""
 
     @abstractmethod
     def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:

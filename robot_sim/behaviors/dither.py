@@ -1,18 +1,19 @@
 """Dither (paper 2.2.3): wiggle the attractor while it advances or retreats along an axis.
 
 `axis` is given in the tool frame and fixed in base axes at the start. The attractor's centre
-moves from the port at start by `travel` along the axis (push: forward, pull: backward) over
-`duration`, and around that centre:
+moves from where the attractor is at start by `travel` along the axis (push: forward, pull:
+backward) over `duration`, and around that centre:
 
-- torsional: the attractor's orientation is tilted by `amplitude` [rad] about an axis
-  perpendicular to the dither axis, and that tilt direction circles the axis at `frequency`
-  (a conical wobble about the port's origin, which stays on the axis);
+- torsional (the paper's): the attractor turns back and forth about the dither axis by
+  +-`amplitude` [rad] at `frequency`, its origin on the axis;
+- conical: the attractor's axis is tilted by `amplitude` [rad] and the tilt direction circles
+  the dither axis at `frequency` (a wobble about the port's origin, which stays on the axis);
 - translational: the orientation is fixed and the origin circles the axis at radius
   `amplitude` [m] at `frequency`.
 
-The wiggle's amplitude ramps in over its first cycle so starting in contact does not kick.
-Exits: `wrench_breach` (thresholds), `goal_reached` when the port has advanced the travel (to
-within TRAVEL_TOLERANCE_M), `timeout` at the watchdog.
+The wiggle's amplitude ramps in over its first cycle, so the attractor never jumps.
+Exits: `wrench_breach` (thresholds, then `on_breach`), `goal_reached` when the port has moved
+the travel from where it was at start (to within TRAVEL_TOLERANCE_M), `timeout` at the watchdog.
 """
 
 import math
@@ -20,7 +21,7 @@ import math
 import mujoco
 import numpy as np
 
-from robot_sim.behaviors.base import Behavior, ExitCondition, wrench_breached
+from robot_sim.behaviors.base import Behavior, ExitCondition, end_breach, wrench_breached
 from robot_sim.controller import AdmittanceController
 from robot_sim.params import DitherParams
 from robot_sim.pose_math import rotate_world, rotation_matrix
@@ -44,8 +45,9 @@ class Dither(Behavior):
         self.axis_world = np.zeros(3)
         self._e1 = np.zeros(3)
         self._e2 = np.zeros(3)
-        self._p_world_start = np.zeros(3)
-        self._q_world_start = np.zeros(4)
+        self._p_world_port_start = np.zeros(3)
+        self._p_world_from = np.zeros(3)  # attractor at start: the centre's origin
+        self._q_world_from = np.zeros(4)
         self._sign = 1.0 if params.direction == "push" else -1.0
         self._wiggle = np.zeros(3)
         self._q_tmp = np.zeros(4)
@@ -53,23 +55,23 @@ class Dither(Behavior):
 
     def start(self, ctl: AdmittanceController, t: float) -> None:
         self._t0 = t
-        self._p_world_start[:] = ctl.p_world_port
-        self._q_world_start[:] = ctl.q_world_port
+        self._p_world_port_start[:] = ctl.p_world_port
+        self._p_world_from[:] = ctl.p_world_attractor
+        self._q_world_from[:] = ctl.q_world_attractor
         axis_tool = np.asarray(self.params.axis, dtype=float)
         axis_tool /= np.linalg.norm(axis_tool)
-        self.axis_world[:] = rotation_matrix(self._q_world_start) @ axis_tool
+        self.axis_world[:] = rotation_matrix(ctl.q_world_port) @ axis_tool
         self._e1[:], self._e2[:] = perpendicular_basis(self.axis_world)
-        ctl.place_attractor_from_port(np.zeros(6))
 
     def progress(self, ctl: AdmittanceController) -> float:
         """How far the port has gone along the axis in the commanded direction [m]."""
-        moved = ctl.p_world_port - self._p_world_start
+        moved = ctl.p_world_port - self._p_world_port_start
         return self._sign * float(moved @ self.axis_world)
 
     def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:
         p = self.params
         if wrench_breached(ctl, p.force_threshold, p.torque_threshold):
-            return ExitCondition.WRENCH_BREACH
+            return end_breach(ctl, p.on_breach, p.force_threshold, p.torque_threshold)
         if self.progress(ctl) >= p.travel - TRAVEL_TOLERANCE_M:
             return ExitCondition.GOAL_REACHED
         elapsed = t - self._t0
@@ -79,12 +81,16 @@ class Dither(Behavior):
         advance = self._sign * p.travel * min(1.0, elapsed / p.duration)
         amplitude = p.amplitude * min(1.0, elapsed * p.frequency)
         phase = 2.0 * math.pi * p.frequency * elapsed
+        mujoco.mju_addScl3(ctl.p_world_attractor, self._p_world_from, self.axis_world, advance)
+        if p.mode == "torsional":
+            mujoco.mju_scl3(self._wiggle, self.axis_world, amplitude * math.sin(phase))
+            rotate_world(ctl.q_world_attractor, self._q_world_from, self._wiggle, 1.0, self._q_tmp)
+            return None
         mujoco.mju_scl3(self._wiggle, self._e1, amplitude * math.cos(phase))
         mujoco.mju_addToScl3(self._wiggle, self._e2, amplitude * math.sin(phase))
-        mujoco.mju_addScl3(ctl.p_world_attractor, self._p_world_start, self.axis_world, advance)
         if p.mode == "translational":
             mujoco.mju_addTo3(ctl.p_world_attractor, self._wiggle)
-            ctl.q_world_attractor[:] = self._q_world_start
+            ctl.q_world_attractor[:] = self._q_world_from
         else:
-            rotate_world(ctl.q_world_attractor, self._q_world_start, self._wiggle, 1.0, self._q_tmp)
+            rotate_world(ctl.q_world_attractor, self._q_world_from, self._wiggle, 1.0, self._q_tmp)
         return None

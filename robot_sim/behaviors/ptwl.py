@@ -1,20 +1,39 @@
 """PTWL, Pose Target Wrench Limiting (paper 2.2.1).
 
-The attractor starts on the port and moves at constant velocity (linear in position, constant
-angular velocity in orientation) to port-at-start (+) displacement over `duration`. It ends
-`wrench_breach` when |f| or |tau| passes its threshold (checked first: safety before success),
-`goal_reached` when the port is within both tolerances of the target, `timeout` at the
-watchdog. Displacements are in the port's frame at start (`tool`) or base axes (`base`); both
-rotate about the port's origin.
+The goal is the port pose at start (+) the displacement; the attractor travels there from
+where it is now at constant velocity (linear in position, constant angular velocity in
+orientation) over `duration`. Starting from the current attractor, not the port, keeps a held
+force through the start, and makes a PTWL that pushes further after a breach breach again at
+once: the paper's "stuck" that RWE relieves (2.2.2).
+
+Exits: `wrench_breach` when |f| or |tau| passes its threshold (checked first: safety before
+success; then `on_breach` says where the attractor goes), `goal_reached` when the port is
+within both tolerances of the goal, `timeout` at the watchdog. Displacements are in the port's
+frame at start (`tool`) or base axes (`base`); both rotate about the port's origin.
 """
 
 import mujoco
 import numpy as np
 
-from robot_sim.behaviors.base import Behavior, ExitCondition, wrench_breached
+from robot_sim.behaviors.base import Behavior, ExitCondition, end_breach, wrench_breached
 from robot_sim.controller import AdmittanceController
 from robot_sim.params import PtwlParams
-from robot_sim.pose_math import angle_between, rotate_world, rotation_matrix
+from robot_sim.pose_math import angle_between, rotate_world, rotation_matrix, rotvec_from_to
+
+
+def ptwl_goal(
+    p_world_port: np.ndarray, q_world_port: np.ndarray, params: PtwlParams
+) -> tuple[np.ndarray, np.ndarray]:
+    """(position [m], quaternion wxyz) of the goal: port (+) displacement, base frame."""
+    translation = np.asarray(params.translation, dtype=float)
+    rotation = np.asarray(params.rotation, dtype=float)
+    if params.frame == "tool":
+        R_world_port = rotation_matrix(q_world_port)
+        translation = R_world_port @ translation
+        rotation = R_world_port @ rotation
+    q_goal = np.zeros(4)
+    rotate_world(q_goal, np.asarray(q_world_port, dtype=float), rotation, 1.0, np.zeros(4))
+    return np.asarray(p_world_port, dtype=float) + translation, q_goal
 
 
 class Ptwl(Behavior):
@@ -24,10 +43,10 @@ class Ptwl(Behavior):
         self.params = params
         self.p_world_goal = np.zeros(3)
         self.q_world_goal = np.zeros(4)
-        self._p_world_start = np.zeros(3)
-        self._q_world_start = np.zeros(4)
-        self._dp_world = np.zeros(3)  # [m] translation to the goal, base axes
-        self._rotvec_world = np.zeros(3)  # [rad] rotation to the goal, base axes
+        self._p_world_from = np.zeros(3)  # attractor at start
+        self._q_world_from = np.zeros(4)
+        self._dp_world = np.zeros(3)  # [m] attractor travel, base axes
+        self._rotvec_world = np.zeros(3)  # [rad] attractor rotation, base axes
         self._q_tmp = np.zeros(4)
         self._v_tmp = np.zeros(3)
         self._t0 = 0.0
@@ -36,31 +55,21 @@ class Ptwl(Behavior):
 
     def start(self, ctl: AdmittanceController, t: float) -> None:
         p = self.params
-        gains = p.gains()
-        if gains is not None:
-            ctl.set_gains(gains)
+        ctl.set_gains(p.gains(ctl.gains))
         self._t0 = t
-        self._p_world_start[:] = ctl.p_world_port
-        self._q_world_start[:] = ctl.q_world_port
-        translation = np.asarray(p.translation, dtype=float)
-        rotation = np.asarray(p.rotation, dtype=float)
-        if p.frame == "tool":
-            R_world_port = rotation_matrix(self._q_world_start)
-            self._dp_world[:] = R_world_port @ translation
-            self._rotvec_world[:] = R_world_port @ rotation
-        else:
-            self._dp_world[:] = translation
-            self._rotvec_world[:] = rotation
-        self.p_world_goal[:] = self._p_world_start + self._dp_world
-        rotate_world(self.q_world_goal, self._q_world_start, self._rotvec_world, 1.0, self._q_tmp)
-        self._rotates = bool(np.any(rotation != 0.0))
+        goal = ptwl_goal(ctl.p_world_port, ctl.q_world_port, p)
+        self.p_world_goal[:], self.q_world_goal[:] = goal
+        self._p_world_from[:] = ctl.p_world_attractor
+        self._q_world_from[:] = ctl.q_world_attractor
+        self._dp_world[:] = self.p_world_goal - self._p_world_from
+        self._rotvec_world[:] = rotvec_from_to(self._q_world_from, self.q_world_goal)
+        self._rotates = bool(np.any(self._rotvec_world != 0.0))
         self._arrived = False
-        ctl.place_attractor_from_port(np.zeros(6))
 
     def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:
         p = self.params
         if wrench_breached(ctl, p.force_threshold, p.torque_threshold):
-            return ExitCondition.WRENCH_BREACH
+            return end_breach(ctl, p.on_breach, p.force_threshold, p.torque_threshold)
         if (
             mujoco.mju_dist3(self.p_world_goal, ctl.p_world_port) <= p.position_tolerance
             and angle_between(self.q_world_goal, ctl.q_world_port, self._v_tmp) <= p.orientation_tolerance
@@ -76,7 +85,7 @@ class Ptwl(Behavior):
         if alpha >= 1.0:
             alpha = 1.0
             self._arrived = True
-        mujoco.mju_addScl3(ctl.p_world_attractor, self._p_world_start, self._dp_world, alpha)
+        mujoco.mju_addScl3(ctl.p_world_attractor, self._p_world_from, self._dp_world, alpha)
         if self._rotates:
-            rotate_world(ctl.q_world_attractor, self._q_world_start, self._rotvec_world, alpha, self._q_tmp)
+            rotate_world(ctl.q_world_attractor, self._q_world_from, self._rotvec_world, alpha, self._q_tmp)
         return None

@@ -3,7 +3,8 @@
 Every tick the attractor is put back on the port along the selected axes, so the virtual
 wrench there is zero and only the sensed wrench drives the port: contact forces relax. On the
 other axes the stretch held at the start is kept (the attractor moves with the port), so e.g.
-an insertion force along z survives an RWE on x, y (the paper's variant, 2.3.5).
+an insertion force along z survives an RWE on x, y (the paper's variant, 2.3.5). The axes are
+base axes, or the port's axes at start with `frame: tool` (keep the force along a tilted tool).
 
 After `duration` it ends `completed` if the wrench on the selected axes is below the residuals,
 else `timeout` (the environment still pushes: the operator should know).
@@ -16,6 +17,12 @@ import numpy as np
 from robot_sim.behaviors.base import Behavior, ExitCondition
 from robot_sim.controller import AdmittanceController
 from robot_sim.params import RweParams
+from robot_sim.pose_math import rotation_matrix
+
+
+def _turn(R: np.ndarray, v6: np.ndarray) -> np.ndarray:
+    """(6,) both 3-blocks of v6 turned by R."""
+    return np.concatenate([R @ v6[0:3], R @ v6[3:6]])
 
 
 class Rwe(Behavior):
@@ -24,13 +31,17 @@ class Rwe(Behavior):
     def __init__(self, params: RweParams) -> None:
         self.params = params
         self._mask = np.array(params.axis_mask(), dtype=bool)  # (6,) True: relieve this axis
-        self._kept_stretch = np.zeros(6)
+        self._kept_stretch = np.zeros(6)  # base axes
+        self._R_world_axes = np.eye(3)
         self._t0 = 0.0
 
     def start(self, ctl: AdmittanceController, t: float) -> None:
         self._t0 = t
         ctl.measure_stretch()
-        self._kept_stretch[:] = np.where(self._mask, 0.0, ctl.stretch_world())
+        if self.params.frame == "tool":
+            self._R_world_axes = rotation_matrix(ctl.q_world_port)
+        stretch_axes = _turn(self._R_world_axes.T, ctl.stretch_world())
+        self._kept_stretch[:] = _turn(self._R_world_axes, np.where(self._mask, 0.0, stretch_axes))
         ctl.place_attractor_from_port(self._kept_stretch)
 
     def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:
@@ -39,8 +50,8 @@ class Rwe(Behavior):
             return None
         return ExitCondition.COMPLETED if self.relieved(ctl.w_world_env_on_port) else ExitCondition.TIMEOUT
 
-    def relieved(self, wrench: np.ndarray) -> bool:
-        selected = np.where(self._mask, wrench, 0.0)
+    def relieved(self, wrench_world: np.ndarray) -> bool:
+        selected = np.where(self._mask, _turn(self._R_world_axes.T, wrench_world), 0.0)
         force = math.sqrt(float(selected[0:3] @ selected[0:3]))
         torque = math.sqrt(float(selected[3:6] @ selected[3:6]))
         return force <= self.params.force_residual and torque <= self.params.torque_residual
