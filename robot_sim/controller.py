@@ -21,10 +21,10 @@ and the joint velocities is linear in them, so it is one precomposed (6, 13) mat
 where Q = P [B^-1 D | B^-1 K_pos | B^-1 K_rot R_port | B^-1 bias], P the DLS inverse, D and
 bias the payload-compensated sensor map rotated to base axes, and B^-1, B^-1 K the diagonal
 gains turned from their frame's axes into base axes (R diag R^T; R = I for `base`, R_port for
-`tool`). Q depends only on the arm's configuration (J, sensor and port orientation) and is rebuilt every KINEMATICS_TICKS
-ticks (8 ms), or every tick while |qdot| > 1 rad/s or near a singularity: between rebuilds the
-configuration moves < 8 mrad, and < 1 mrad at quasi-static speeds. Wrench and stretch feedback
-stay at the full 1 kHz.
+`tool`). Q depends only on the arm's configuration (J, sensor and port orientation) and is
+rebuilt every KINEMATICS_TICKS ticks (8 ms), or every tick while |qdot| > 1 rad/s or near a
+singularity: between rebuilds the configuration moves < 8 mrad, and < 1 mrad at quasi-static
+speeds. Wrench and stretch feedback stay at the full 1 kHz.
 """
 
 import math

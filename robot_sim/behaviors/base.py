@@ -9,6 +9,7 @@ after a wrench breach with `on_breach: limit`, where it is placed to hold the th
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from enum import StrEnum
+
 import numpy as np
 
 from robot_sim.controller import AdmittanceController
