@@ -72,10 +72,9 @@ class StrictModel(BaseModel):
 
 
 OnBreach = Literal["limit", "freeze"]
-OnBreachField = Field(
-    "limit",
-    description="where the attractor goes on a wrench breach: `limit` holds the threshold (default); "
-    "`freeze` leaves it where it was (the paper's rule: the held force can pass the threshold)",
+ON_BREACH_DOC = (
+    "where the attractor goes on a wrench breach: `limit` holds the threshold (default); "
+    "`freeze` leaves it where it was (the paper's rule: the held force can pass the threshold)"
 )
 GAINS_FRAME_DOC = "axes K and B are diagonal in: `base`, or `tool` (the port's axes, turning with it)"
 
@@ -113,7 +112,7 @@ class PtwlParams(StrictModel):
     position_tolerance: Threshold = Field(0.002, description="[m] goal_reached when within this")
     orientation_tolerance: Threshold = Field(0.02, description="[rad] and within this")
     watchdog: Duration | None = Field(None, description="[s] timeout; >= duration; default duration + 5")
-    on_breach: OnBreach = OnBreachField
+    on_breach: OnBreach = Field("limit", description=ON_BREACH_DOC)
     preset: str | None = Field(None, description="stiffness/damping preset name")
     stiffness: Vec6 | None = Field(None, description="explicit [N/m x3, N m/rad x3], with damping")
     damping: Vec6 | None = Field(None, description="explicit [N s/m x3, N m s/rad x3], with stiffness")
@@ -166,17 +165,17 @@ class DitherParams(StrictModel):
 
     type: Literal["dither"] = Field("dither", description="behavior: dither")
     preset: str | None = Field(None, description="one of the dither presets; other fields override it")
-    mode: Literal["torsional", "translational", "conical"] = Field(
+    mode: Literal["torsional", "translational"] = Field(
         "torsional",
-        description="torsional: turn back and forth about the axis (paper); translational: origin "
-        "circles the axis; conical: the orientation's axis wobbles in a cone about the axis",
+        description="torsional: turn back and forth about the axis, origin on it; translational: "
+        "the origin circles the axis, orientation fixed",
     )
     direction: Literal["push", "pull"] = Field("push", description="advance along the axis, or retreat")
     axis: Annotated[Vec3, _vector(math.inf, "", nonzero=True)] = Field(
         default_factory=lambda: [0.0, 0.0, 1.0], description="tool frame direction (normalized)"
     )
     amplitude: Annotated[float, _range(0.0, limits.MAX_DITHER_AMPLITUDE, "rad or m", lo_open=True)] = Field(
-        0.03, description="[rad] turn (torsional) or tilt (conical), or [m] circle radius (translational)"
+        0.03, description="[rad] turn (torsional) or [m] circle radius (translational)"
     )
     frequency: Annotated[float, _range(0.0, limits.MAX_DITHER_FREQUENCY_HZ, "Hz", lo_open=True)] = Field(
         1.0, description="[Hz] wiggle frequency"
@@ -188,7 +187,7 @@ class DitherParams(StrictModel):
     force_threshold: Threshold = Field(30.0, description="[N]")
     torque_threshold: Threshold = Field(3.0, description="[N m]")
     watchdog: Duration | None = Field(None, description="[s] >= duration; default duration + 5")
-    on_breach: OnBreach = OnBreachField
+    on_breach: OnBreach = Field("limit", description=ON_BREACH_DOC)
 
     @model_validator(mode="before")
     @classmethod

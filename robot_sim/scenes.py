@@ -5,6 +5,7 @@ simulation. A seed jitters the fixture's position (a few mm in x and y) so that 
 vary the task; no seed gives the nominal layout.
 """
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -18,7 +19,7 @@ if TYPE_CHECKING:
 
 # Tool pointing straight down with the wrist well away from singularities: pitch joints
 # 2, 3 and 5 sum to pi/2.
-HOME_TOOL_DOWN = (0.0, 0.3, 0.2, 0.0, 1.0708, 0.0)
+HOME_TOOL_DOWN = (0.0, 0.3, 0.2, 0.0, math.pi / 2 - 0.5, 0.0)
 
 
 @dataclass(frozen=True)
@@ -93,12 +94,13 @@ SCENES: dict[str, Scene] = {
         ),
         Scene(
             "sleeve_on_peg",
-            "A 25.4 mm peg with a 1.5 mm chamfer under a sleeve of 0.4 mm diametral clearance.",
+            "A 25.4 mm peg with a 1.5 mm chamfer under a sleeve of 0.089 mm diametral clearance "
+            "(the paper's 1.0035 in over 1 in); a seed moves the peg up to 1 mm in x and y.",
             "sleeve_on_peg.xml",
             "sleeve.xml",
             HOME_TOOL_DOWN,
             "peg_base",
-            0.002,
+            0.001,
             _sleeve_on_peg,
         ),
     )

@@ -5,8 +5,9 @@
     ptwl sim [--scene NAME] [--demo] [--seconds S]        the robot alone, headless, real time
     ptwl scenes | ptwl presets                            what exists
 
-`ptwl sim --demo` drives the paper's sleeve-on-peg sequence (tilt, jammed PTWL, RWE, torsional
-dither, PTWL) and prints one status line a second.
+`ptwl sim --demo` drives the paper's sleeve-on-peg sequence (a 3 degree tilt, then the
+documented strategy: PTWL jams, RWE, torsional dither, PTWL, until inserted) and prints one
+status line a second.
 """
 
 import argparse
@@ -14,30 +15,27 @@ import json
 import os
 import signal
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 
-from robot_sim.behaviors.base import Behavior, BehaviorReport
-from robot_sim.behaviors.dither import Dither
+from robot_sim.behaviors.base import BehaviorReport
 from robot_sim.behaviors.ptwl import Ptwl
-from robot_sim.behaviors.rwe import Rwe
 from robot_sim.errors import RobotSimError
-from robot_sim.params import DitherParams, PtwlParams, RweParams
+from robot_sim.params import PtwlParams
 from robot_sim.presets import default_presets
 from robot_sim.scenes import SCENES
 from robot_sim.sim import Simulation
+from robot_sim.strategies import Strategy
+from robot_sim.strategies.sleeve_on_peg import sleeve_insertion
 from server.config import ConfigError
 from server.pacing import RealTimePacer
 
+DEMO_TILT_RAD = 0.052  # 3 degrees about the tool x axis: enough to jam the 0.089 mm fit
 
-def demo_sequence() -> Iterator[Behavior]:
-    """Paper 2.3.5 on `sleeve_on_peg`: a tilt jams plain PTWL; a dither gets it in."""
-    insert = PtwlParams(translation=[0.0, 0.0, 0.06], duration=4.0, force_threshold=25.0)
-    yield Ptwl(PtwlParams(rotation=[0.05, 0.0, 0.0], duration=1.0, preset="medium"))
-    yield Ptwl(insert)
-    yield Rwe(RweParams())
-    yield Dither(DitherParams(preset="torsional_push"))
-    yield Ptwl(insert)
+
+def demo_sequence(sim: Simulation) -> Strategy:
+    """Paper 2.3.5 on `sleeve_on_peg`: a tilt jams plain PTWL; the twist dither gets it in."""
+    yield Ptwl(PtwlParams(rotation=[DEMO_TILT_RAD, 0.0, 0.0], duration=1.0, preset="medium"))
+    yield from sleeve_insertion(lambda: sim.task().success)
 
 
 def status_line(sim: Simulation) -> str:
@@ -57,6 +55,7 @@ def report_line(report: BehaviorReport) -> str:
     return (
         f"  -> {report.behavior} ended {report.exit.value} after {report.duration:.2f} s "
         f"(peak {report.peak_force:.1f} N, {report.peak_torque:.2f} N m)"
+        + (f" {report.detail}" if report.detail else "")
     )
 
 
@@ -97,17 +96,26 @@ def cmd_sim(args: argparse.Namespace) -> int:
     scene = args.scene or ("sleeve_on_peg" if args.demo else "surface")
     sim = Simulation(scene, seed=args.seed)
     pacer = RealTimePacer(sim)
-    pending = demo_sequence() if args.demo else iter(())
+    pending: Strategy | None = demo_sequence(sim) if args.demo else None
+    reports: list[BehaviorReport] = []
+
+    def on_report(report: BehaviorReport) -> None:
+        reports.append(report)
+        print(report_line(report), flush=True)
+
     print(f"ptwl: robot up on scene {scene!r} (real time, Ctrl-C to stop)", flush=True)
     next_status = 0.0
     try:
         while args.seconds is None or sim.time < args.seconds:
-            if sim.behavior is None:
-                behavior = next(pending, None)
-                if behavior is not None:
+            if sim.behavior is None and pending is not None:
+                try:
+                    behavior = pending.send(reports[-1]) if reports else next(pending)
+                except StopIteration:
+                    pending = None
+                else:
                     print(f"  <- {behavior.kind}", flush=True)
                     sim.start(behavior)
-            pacer.advance(on_report=lambda r: print(report_line(r), flush=True))
+            pacer.advance(on_report=on_report)
             if sim.time >= next_status:
                 print(status_line(sim), flush=True)
                 next_status += 1.0

@@ -6,12 +6,12 @@ backward) over `duration`, and around that centre:
 
 - torsional (the paper's): the attractor turns back and forth about the dither axis by
   +-`amplitude` [rad] at `frequency`, its origin on the axis;
-- conical: the attractor's axis is tilted by `amplitude` [rad] and the tilt direction circles
-  the dither axis at `frequency` (a wobble about the port's origin, which stays on the axis);
 - translational: the orientation is fixed and the origin circles the axis at radius
   `amplitude` [m] at `frequency`.
 
-The wiggle's amplitude ramps in over its first cycle, so the attractor never jumps.
+The wiggle's amplitude ramps in over its first cycle, so the attractor never jumps. (A conical
+wobble of the axis was tried as a third mode and dropped: it recovered 1 of 12 sleeve jams
+where the paper's twist recovers 12 of 12; see robot_sim/strategies/sleeve_on_peg.py.)
 Exits: `wrench_breach` (thresholds, then `on_breach`), `goal_reached` when the port has moved
 the travel from where it was at start (to within TRAVEL_TOLERANCE_M), `timeout` at the watchdog.
 """
@@ -85,12 +85,9 @@ class Dither(Behavior):
         if p.mode == "torsional":
             mujoco.mju_scl3(self._wiggle, self.axis_world, amplitude * math.sin(phase))
             rotate_world(ctl.q_world_attractor, self._q_world_from, self._wiggle, 1.0, self._q_tmp)
-            return None
-        mujoco.mju_scl3(self._wiggle, self._e1, amplitude * math.cos(phase))
-        mujoco.mju_addToScl3(self._wiggle, self._e2, amplitude * math.sin(phase))
-        if p.mode == "translational":
+        else:
+            mujoco.mju_scl3(self._wiggle, self._e1, amplitude * math.cos(phase))
+            mujoco.mju_addToScl3(self._wiggle, self._e2, amplitude * math.sin(phase))
             mujoco.mju_addTo3(ctl.p_world_attractor, self._wiggle)
             ctl.q_world_attractor[:] = self._q_world_from
-        else:
-            rotate_world(ctl.q_world_attractor, self._q_world_from, self._wiggle, 1.0, self._q_tmp)
         return None
