@@ -22,6 +22,11 @@ class PoseModel(BaseModel):
 class CommandAccepted(BaseModel):
     id: int = Field(description="command id, for GET /api/commands/{id}")
     status: Literal["queued"] = Field("queued", description="always `queued`")
+    warnings: list[str] = Field(
+        default_factory=list,
+        description="accepted, but worth knowing: e.g. an approach fast enough to pass the force "
+        "threshold on impact (robot_sim/impact.py)",
+    )
 
 
 class CommandStatus(BaseModel):
@@ -42,7 +47,11 @@ class CommandStatus(BaseModel):
     peak_torque: float | None = Field(None, description="[N m] max |tau| about the port while running")
     final_wrench: list[float] | None = Field(None, description="[N, N m] environment on port at exit")
     final_port: PoseModel | None = Field(None, description="port pose at exit")
-    detail: str = Field("", description="why it ended, when there is more to say (stop, fault)")
+    detail: str = Field(
+        "",
+        description="why it ended, when there is more to say: stop, fault, or what held the port "
+        "back (`limited: singularity (1.20 s)`; also joint_limit, speed)",
+    )
 
 
 class RobotStateModel(BaseModel):
@@ -55,6 +64,9 @@ class RobotStateModel(BaseModel):
     scene: str = Field(description="loaded scene")
     manipulability: float = Field(description="sqrt(det(J J^T)); the DLS damps below 0.012")
     faults: int = Field(description="simulation faults since start (each reset the scene)")
+    limited: str | None = Field(
+        None, description="what holds the motion back now: singularity, joint_limit or speed; null if none"
+    )
     bodies: dict[str, list[float]] = Field(
         default_factory=dict, description="moving bodies' poses [x y z (m), qw qx qy qz], base frame"
     )

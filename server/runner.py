@@ -159,6 +159,7 @@ class SimRunner:
             "scene": state.scene,
             "manipulability": state.manipulability,
             "faults": self.sim.fault_count,
+            "limited": state.limited,
             "bodies": body_poses(self.sim.model, self.sim.data, self._moving),
         }
 

@@ -135,6 +135,8 @@ class ConsoleApp:
             self._notify("Command not delivered", f"{type(err).__name__}: {err}", "red")
         else:
             self.history.accepted(view, accepted.id)
+            for warning in accepted.warnings:
+                self._notify(f"#{accepted.id}: check the approach", warning, "orange")
         if view.phase == "done" and view is self._commanded and self.view is not None:
             self.view.show_commanded(None)
         self.panel.show_command(self.history.latest())

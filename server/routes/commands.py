@@ -6,6 +6,8 @@ from typing import Annotated
 
 from fastapi import APIRouter, Body, HTTPException, Query, Request, status
 
+from robot_sim.impact import impact_warnings
+from robot_sim.params import PtwlParams
 from server.auth import Authorized
 from server.models import Command, CommandAccepted, CommandStatus, StopResult
 from server.routes.deps import Book, DoneWaiters, Runner, on_sim_thread
@@ -18,12 +20,23 @@ MAX_WAIT_S = 60.0
 
 @router.post("/commands", status_code=status.HTTP_202_ACCEPTED, response_model=CommandAccepted)
 async def submit_command(
-    request: Request, _: Authorized, book: Book, params: Annotated[Command, Body(discriminator="type")]
+    request: Request,
+    _: Authorized,
+    book: Book,
+    runner: Runner,
+    params: Annotated[Command, Body(discriminator="type")],
 ) -> CommandAccepted:
-    """Validate and queue a PTWL, RWE or Dither; commands run in order, one at a time."""
+    """Validate and queue a PTWL, RWE or Dither; commands run in order, one at a time.
+
+    `warnings` says what is accepted but worth knowing (an approach that will overshoot the
+    force threshold on impact)."""
     record = book.submit(params)
     request.app.state.broadcaster.publish(command_event(record))
-    return CommandAccepted(id=record.id)
+    warnings: list[str] = []
+    if isinstance(params, PtwlParams):
+        q_world_port = runner.latest_state["port"]["quaternion"]
+        warnings = impact_warnings(params, runner.sim.controller.gains, q_world_port)
+    return CommandAccepted(id=record.id, warnings=warnings)
 
 
 @router.get("/commands", response_model=list[CommandStatus])
