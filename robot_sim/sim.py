@@ -189,14 +189,16 @@ class Simulation:
         return reports
 
     # ---------------------------------------------------------------------- behaviors
-    def start(self, behavior: Behavior) -> None:
-        """Start `behavior` now, preempting (aborting) any running one.
+    def start(self, behavior: Behavior) -> BehaviorReport | None:
+        """Start `behavior` now, preempting any running one.
 
         The behavior starts from the attractor where it is, so nothing jumps: a held force
         carries into the new command.
+
+        Returns:
+            The preempted behavior's report (exit `aborted`, detail "preempted"), or None.
         """
-        if self.behavior is not None:
-            self.abort()
+        preempted = self.abort("preempted") if self.behavior is not None else None
         if not self.controller.enabled:
             self.controller.enable()  # bumpless from position hold
         self.behavior = behavior
@@ -205,6 +207,7 @@ class Simulation:
         self._peak_torque = 0.0
         self._limited_s = {}
         behavior.start(self.controller, self.time)
+        return preempted
 
     def abort(self, detail: str = "aborted") -> BehaviorReport | None:
         """End the running behavior `aborted`; the attractor freezes where it is."""
