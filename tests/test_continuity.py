@@ -36,10 +36,9 @@ def force_z_over(sim: Simulation, seconds: float) -> np.ndarray:
     return np.array(out)
 
 
+LATERAL = PtwlParams(translation=[0.02, 0, 0], frame="base", duration=4.0, force_threshold=40)
 STARTS: dict[str, Behavior] = {
-    "ptwl_lateral": Ptwl(
-        PtwlParams(translation=[0.02, 0, 0], frame="base", duration=4.0, force_threshold=40)
-    ),
+    "ptwl_lateral": Ptwl(LATERAL),
     "ptwl_up": Ptwl(PtwlParams(translation=[0, 0, -0.01], duration=4.0, force_threshold=40)),
     "dither_torsional": Dither(DitherParams(preset="torsional_push", force_threshold=40)),
     "dither_translational": Dither(DitherParams(preset="translational_pull", force_threshold=40)),
@@ -61,7 +60,7 @@ def test_starting_a_command_keeps_the_held_force(name: str) -> None:
 
 def test_preemption_keeps_the_held_force_and_ends_the_first_aborted() -> None:
     sim = pressing()
-    sim.start(Ptwl(PtwlParams(translation=[0.02, 0, 0], frame="base", duration=4.0, force_threshold=40)))
+    sim.start(Ptwl(LATERAL))
     sim.run(0.5)
     before = float(sim.controller.w_world_env_on_port[2])
     assert before > 0.5 * PRESS_N
@@ -74,7 +73,7 @@ def test_preemption_keeps_the_held_force_and_ends_the_first_aborted() -> None:
 
 def test_stop_keeps_the_press_and_stops_free_motion() -> None:
     sim = pressing()
-    sim.start(Ptwl(PtwlParams(translation=[0.02, 0, 0], frame="base", duration=4.0, force_threshold=40)))
+    sim.start(Ptwl(LATERAL))
     sim.run(0.3)
     before = float(sim.controller.w_world_env_on_port[2])
     report = sim.hold_position()
