@@ -1,4 +1,5 @@
-"""Dither: each mode makes its specified motion and advances (push) or retreats (pull)."""
+"""Dither: each mode makes its specified motion and advances (push) or retreats (pull); every
+preset is tried in free space and in a jam."""
 
 import math
 
@@ -6,11 +7,13 @@ import mujoco
 import numpy as np
 import pytest
 
-from robot_sim.behaviors.base import ExitCondition
-from robot_sim.behaviors.dither import Dither, perpendicular_basis
-from robot_sim.params import DitherParams
+from robot_sim.behaviors import Dither, ExitCondition, Ptwl, Rwe
+from robot_sim.behaviors.dither import perpendicular_basis
+from robot_sim.params import DitherParams, PtwlParams, RweParams
 from robot_sim.presets import default_presets
+from robot_sim.scenes import sleeve_insertion_depth
 from robot_sim.sim import Simulation
+from robot_sim.strategies.sleeve_on_peg import INSERT
 
 
 def rotvec_between(q_to: np.ndarray, q_from: np.ndarray) -> np.ndarray:
@@ -31,16 +34,13 @@ def circle_fit(t: np.ndarray, xy: np.ndarray) -> tuple[float, float]:
     return radius, float(np.polyfit(t, phase, 1)[0] / (2 * math.pi))
 
 
-@pytest.mark.parametrize(
-    "preset", ["torsional_push", "torsional_pull", "translational_push", "translational_pull"]
-)
-def test_dither_preset_motion_and_travel(preset: str) -> None:
+@pytest.mark.parametrize("preset", ["translational_push", "translational_pull"])
+def test_translational_preset_circles_and_travels(preset: str) -> None:
     sim = Simulation("free_space")
     ctl = sim.controller
     params = DitherParams(preset=preset)
     behavior = Dither(params)
     p0 = ctl.p_world_port.copy()
-    q0 = ctl.q_world_port.copy()
     sim.start(behavior)
     e1, e2 = perpendicular_basis(behavior.axis_world)
     sign = 1.0 if params.direction == "push" else -1.0
@@ -48,16 +48,11 @@ def test_dither_preset_motion_and_travel(preset: str) -> None:
     report = None
     while report is None:
         report = sim.step()
-        elapsed = sim.time  # the dither started at t = 0
         if sim.time < 1.0 / params.frequency or sim.time > params.duration:
             continue  # skip the amplitude ramp-in and the settling after the travel
-        if params.mode == "translational":
-            centre = p0 + sign * behavior.axis_world * params.travel * min(1.0, elapsed / params.duration)
-            a = ctl.p_world_attractor - centre
-            b = ctl.p_world_port - centre
-        else:
-            a = rotvec_between(ctl.q_world_attractor, q0)
-            b = rotvec_between(ctl.q_world_port, q0)
+        centre = p0 + sign * behavior.axis_world * params.travel * min(1.0, sim.time / params.duration)
+        a = ctl.p_world_attractor - centre
+        b = ctl.p_world_port - centre
         t.append(sim.time)
         att.append([a @ e1, a @ e2])
         port.append([b @ e1, b @ e2])
@@ -66,15 +61,87 @@ def test_dither_preset_motion_and_travel(preset: str) -> None:
     assert radius == pytest.approx(params.amplitude, rel=0.05)
     assert freq == pytest.approx(params.frequency, rel=0.05)
     # The port follows through the admittance: same frequency, amplitude of a first-order lag.
-    axis = 0 if params.mode == "translational" else 3
-    tau = ctl.gains.time_constants_s()[axis]
+    tau = ctl.gains.time_constants_s()[0]
     port_radius, port_freq = circle_fit(np.array(t), np.array(port))
     assert port_freq == pytest.approx(params.frequency, rel=0.05)
     lag_gain = 1.0 / math.hypot(1.0, 2 * math.pi * params.frequency * tau)
     assert port_radius == pytest.approx(params.amplitude * lag_gain, rel=0.10)
-    # Advance along the axis by the travel (to within the exit tolerance).
     advanced = sign * float((np.array(report.final_port.position) - p0) @ behavior.axis_world)
     assert params.travel - 0.001 <= advanced <= params.travel + 0.001
+
+
+@pytest.mark.parametrize("preset", ["torsional_push", "torsional_pull"])
+def test_torsional_preset_turns_about_its_axis_with_the_origin_on_it(preset: str) -> None:
+    """Paper 2.2.3: "the attractor rotates about a specified axis while keeping its origin on it"."""
+    sim = Simulation("free_space")
+    ctl = sim.controller
+    params = DitherParams(preset=preset)
+    behavior = Dither(params)
+    p0 = ctl.p_world_attractor.copy()
+    q0 = ctl.q_world_attractor.copy()
+    sim.start(behavior)
+    axis = behavior.axis_world
+    t, angle, off_axis_turn, off_axis_origin = [], [], [], []
+    report = None
+    while report is None:
+        report = sim.step()
+        if sim.time < 1.0 / params.frequency or sim.time > params.duration:
+            continue
+        turn = rotvec_between(ctl.q_world_attractor, q0)
+        t.append(sim.time - sim.control_dt)  # the attractor was set for the tick's start
+        angle.append(float(turn @ axis))
+        off_axis_turn.append(float(np.linalg.norm(turn - (turn @ axis) * axis)))
+        rel = ctl.p_world_attractor - p0
+        off_axis_origin.append(float(np.linalg.norm(rel - (rel @ axis) * axis)))
+    assert report.exit is ExitCondition.GOAL_REACHED
+    # Back and forth by +-amplitude about the axis, at the frequency, and nothing else.
+    assert max(angle) == pytest.approx(params.amplitude, rel=0.02)
+    assert min(angle) == pytest.approx(-params.amplitude, rel=0.02)
+    fit = np.array(angle) - params.amplitude * np.sin(2 * math.pi * params.frequency * np.array(t))
+    assert np.abs(fit).max() < 1e-6
+    assert max(off_axis_turn) < 1e-9
+    assert max(off_axis_origin) < 1e-9
+    sign = 1.0 if params.direction == "push" else -1.0
+    moved = sign * float((np.array(report.final_port.position) - p0) @ axis)
+    assert params.travel - 0.0015 <= moved <= params.travel + 0.0015
+
+
+@pytest.mark.parametrize("preset", sorted(default_presets().dither))
+def test_no_preset_breaches_its_own_threshold_from_the_wiggle(preset: str) -> None:
+    """A fully blocked wiggle builds K x amplitude; the preset's threshold must sit above it."""
+    params = DitherParams(preset=preset)
+    medium = default_presets().stiffness_preset(default_presets().default_stiffness)
+    if params.mode == "torsional":
+        assert medium.stiffness[5] * params.amplitude < params.torque_threshold
+    else:
+        assert medium.stiffness[0] * params.amplitude < params.force_threshold
+
+
+def jammed_sleeve() -> Simulation:
+    sim = Simulation("sleeve_on_peg")
+    sim.run_behavior(Ptwl(PtwlParams(rotation=[0.052, 0, 0], duration=1.0)))
+    jam = sim.run_behavior(Ptwl(INSERT))
+    assert jam.exit is ExitCondition.WRENCH_BREACH
+    sim.run_behavior(Rwe(RweParams()))
+    return sim
+
+
+@pytest.mark.parametrize("preset", sorted(default_presets().dither))
+def test_every_preset_in_a_jam(preset: str) -> None:
+    sim = jammed_sleeve()
+    depth = sleeve_insertion_depth(sim)
+    assert 0.0 < depth < 0.010
+    params = DitherParams(preset=preset)
+    report = sim.run_behavior(Dither(params))
+    moved = sleeve_insertion_depth(sim) - depth
+    assert report.exit is not ExitCondition.WRENCH_BREACH  # no self-breach, even jammed
+    if params.direction == "pull":
+        assert report.exit is ExitCondition.GOAL_REACHED  # backs out of the jam
+        assert moved < -(params.travel - 0.0015)
+    elif params.mode == "torsional":
+        assert moved > 0.003  # the twist walks the sleeve in
+    else:
+        assert report.exit is ExitCondition.TIMEOUT and abs(moved) < 0.003  # circles do not free it
 
 
 def test_every_dither_preset_is_a_valid_request() -> None:

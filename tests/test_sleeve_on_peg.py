@@ -1,46 +1,106 @@
-"""Sleeve on peg (paper 2.3.5): a tilt jams plain PTWL; a torsional push dither recovers it."""
+"""Sleeve on peg (paper 2.3.5, Table 3) at the paper's 0.089 mm fit: aligned it takes one PTWL;
+tilted 2-4 degrees it jams, and the documented twist-dither strategy recovers the jams."""
 
+import functools
+import math
+
+import numpy as np
 import pytest
 
-from robot_sim.behaviors.base import ExitCondition
-from robot_sim.behaviors.dither import Dither
-from robot_sim.behaviors.ptwl import Ptwl
-from robot_sim.behaviors.rwe import Rwe
-from robot_sim.params import DitherParams, PtwlParams, RweParams
-from robot_sim.scenes import sleeve_insertion_depth
+from robot_sim.behaviors import ExitCondition, Ptwl, Rwe
+from robot_sim.params import PtwlParams, RweParams
+from robot_sim.scenes import get_scene, sleeve_insertion_depth
 from robot_sim.sim import Simulation
+from robot_sim.strategies import run_strategy
+from robot_sim.strategies.sleeve_on_peg import INSERT, sleeve_insertion
 
-TILT_RAD = 0.05  # about the tool x axis: past the clearance's tolerance once engaged
-INSERT = PtwlParams(translation=[0.0, 0.0, 0.06], duration=4.0, force_threshold=25.0)
+PEG_RADIUS_M = 0.0127
 
 
-def tilted_and_jammed() -> Simulation:
+def test_the_fit_is_the_papers_and_home_is_on_the_peg_axis() -> None:
     sim = Simulation("sleeve_on_peg")
-    assert sleeve_insertion_depth(sim) == pytest.approx(-0.0206, abs=0.001)  # 20 mm above the peg
-    tilt = sim.run_behavior(Ptwl(PtwlParams(rotation=[TILT_RAD, 0.0, 0.0], duration=1.0, preset="medium")))
-    assert tilt.exit is ExitCondition.GOAL_REACHED
-    jam = sim.run_behavior(Ptwl(INSERT))
-    assert jam.exit is ExitCondition.WRENCH_BREACH
-    assert 0.0 < sleeve_insertion_depth(sim) < 0.003  # caught at the mouth
-    assert sim.run_behavior(Rwe(RweParams())).exit is ExitCondition.COMPLETED
+    m, d = sim.model, sim.data
+    port = sim.controller.p_world_port
+    walls = [g for g in range(m.ngeom) if m.geom(g).name == "" and m.geom_bodyid[g] == sim.layout.tool_body]
+    walls = [g for g in walls if m.geom_type[g] == 6]  # boxes
+    assert len(walls) == 16
+    inner = [np.linalg.norm((d.geom_xpos[g] - port)[0:2]) - m.geom_size[g][0] for g in walls]
+    diametral_clearance = 2 * (float(np.mean(inner)) - PEG_RADIUS_M)
+    assert diametral_clearance == pytest.approx(0.0254 * 0.0035, abs=2e-6)  # 1.0035" bore, 1" peg
+    peg_top = d.site_xpos[m.site("peg_top").id]
+    assert np.linalg.norm((port - peg_top)[0:2]) < 5e-5
+
+
+def test_aligned_insertion_is_one_ptwl_as_in_table_3() -> None:
+    sim = Simulation("sleeve_on_peg")
+    reports = run_strategy(sim, sleeve_insertion(lambda: sim.task().success))
+    assert [r.behavior for r in reports] == ["ptwl"]
+    assert reports[0].exit is ExitCondition.TIMEOUT  # pressing on the bottom, as the paper's 10 of 10
+    assert 15.0 <= reports[0].peak_force <= 25.0  # paper: 18.8 N mean peak
+    assert sim.task().success and sim.task().progress >= 0.039
+    # Resting bottomed on the peg, the wrench reads steady (state machines read it as events).
+    wrenches = np.array(
+        [sim.controller.w_world_env_on_port.copy() for _ in range(2000) if sim.step() is None]
+    )
+    assert wrenches[:, 0:3].std(axis=0).max() < 0.5
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3, 4])
+def test_every_jittered_peg_inserts_with_one_ptwl(seed: int) -> None:
+    sim = Simulation("sleeve_on_peg", seed=seed)
+    offset = sim.model.body("peg_base").pos[0:2] - Simulation("sleeve_on_peg").model.body("peg_base").pos[0:2]
+    assert np.all(np.abs(offset) <= get_scene("sleeve_on_peg").jitter_m)
+    reports = run_strategy(sim, sleeve_insertion(lambda: sim.task().success))
+    assert len(reports) == 1 and sim.task().success
+
+
+def tilted(axis: int, degrees: float) -> Simulation:
+    sim = Simulation("sleeve_on_peg")
+    rotation = [0.0, 0.0, 0.0]
+    rotation[axis] = math.radians(degrees)
+    assert (
+        sim.run_behavior(Ptwl(PtwlParams(rotation=rotation, duration=1.0))).exit is ExitCondition.GOAL_REACHED
+    )
     return sim
 
 
-def test_plain_ptwl_keeps_jamming() -> None:
-    sim = tilted_and_jammed()
+GRID = [(axis, sign * degrees) for axis in (0, 1) for degrees in (2, 3, 4) for sign in (1, -1)]
+
+
+@functools.cache
+def recovery_grid() -> dict[tuple[int, float], tuple[str, bool, int]]:
+    """(axis, tilt [deg]) -> (the first PTWL's exit, inserted, behaviors used)."""
+    outcome = {}
+    for axis, degrees in GRID:
+        sim = tilted(axis, degrees)
+        reports = run_strategy(sim, sleeve_insertion(lambda sim=sim: sim.task().success))
+        outcome[(axis, degrees)] = (reports[0].exit.value, sim.task().success, len(reports))
+    return outcome
+
+
+def test_tilts_of_2_to_4_degrees_jam_and_plain_ptwl_keeps_jamming() -> None:
+    for (axis, degrees), (first_exit, _, _) in recovery_grid().items():
+        assert first_exit == "wrench_breach", (axis, degrees)
+    sim = tilted(1, -3)
+    assert sim.run_behavior(Ptwl(INSERT)).exit is ExitCondition.WRENCH_BREACH
+    depth = sleeve_insertion_depth(sim)
+    assert 0.0 < depth < 0.010  # caught at the mouth
     for _ in range(2):  # "jamming would still occur after a PTWL was sent" (paper 2.3.5)
-        assert sim.run_behavior(Ptwl(INSERT)).exit is ExitCondition.WRENCH_BREACH
         sim.run_behavior(Rwe(RweParams()))
-    assert not sim.task().success
-    assert sleeve_insertion_depth(sim) < 0.025
+        assert sim.run_behavior(Ptwl(INSERT)).exit is ExitCondition.WRENCH_BREACH
+    assert sleeve_insertion_depth(sim) < depth + 0.002
 
 
-def test_torsional_push_dither_recovers_the_insertion() -> None:
-    sim = tilted_and_jammed()
-    dither = sim.run_behavior(Dither(DitherParams(preset="torsional_push")))
-    assert dither.exit is ExitCondition.GOAL_REACHED
-    assert sleeve_insertion_depth(sim) > 0.015  # past the jam
-    final = sim.run_behavior(Ptwl(INSERT))
-    assert final.exit is ExitCondition.WRENCH_BREACH  # bottomed out in the sleeve
-    task = sim.task()
-    assert task.success and task.progress >= 0.035
+def test_the_strategy_recovers_at_least_9_of_10_jams_over_the_grid() -> None:
+    outcome = recovery_grid()
+    recovered = sum(success for _, success, _ in outcome.values())
+    assert recovered >= 0.9 * len(outcome), outcome
+    # It used the recovery (RWE, Dither, PTWL rounds), not luck on the first PTWL.
+    assert all(used >= 4 for _, _, used in outcome.values())
+
+
+def test_one_degree_is_absorbed_by_the_compliance() -> None:
+    for axis in (0, 1):
+        sim = tilted(axis, 1.0)
+        reports = run_strategy(sim, sleeve_insertion(lambda sim=sim: sim.task().success))
+        assert len(reports) == 1 and sim.task().success
