@@ -177,6 +177,7 @@ class AdmittanceController:
         self._tool_frame_gains = gains.frame == "tool"
         if not self._tool_frame_gains:
             self._R_gains[:] = np.eye(3)
+            self._rotate_gains()  # constant in base axes: once here, not per refresh
         self.refresh_kinematics()
 
     # ---------------------------------------------------------------------- kinematics
@@ -232,10 +233,7 @@ class AdmittanceController:
         R_port = self._R_world_port_flat.reshape(3, 3)
         if self._tool_frame_gains:
             self._R_gains[:] = R_port
-        self._to_base(self._inv_damping[0:3], self._inv_b_pos)
-        self._to_base(self._inv_damping[3:6], self._inv_b_rot)
-        self._to_base(self._k_over_b[0:3], self._kb_pos)
-        self._to_base(self._k_over_b[3:6], self._kb_rot)
+            self._rotate_gains()
         tmap = self._twist_map
         np.dot(self._inv_b_pos, wmap[0:3], out=tmap[0:3])  # stretch columns of wmap are 0
         np.dot(self._inv_b_rot, wmap[3:6], out=tmap[3:6])
@@ -243,6 +241,13 @@ class AdmittanceController:
         np.dot(self._kb_rot, R_port, out=self._rot_block)
         tmap[3:6, 9:12] = self._rot_block
         np.dot(P, tmap, out=self._qdot_map)
+
+    def _rotate_gains(self) -> None:
+        """B^-1 and B^-1 K blocks in base axes from the diagonals in the gains' axes."""
+        self._to_base(self._inv_damping[0:3], self._inv_b_pos)
+        self._to_base(self._inv_damping[3:6], self._inv_b_rot)
+        self._to_base(self._k_over_b[0:3], self._kb_pos)
+        self._to_base(self._k_over_b[3:6], self._kb_rot)
 
     def _to_base(self, diagonal: np.ndarray, out: np.ndarray) -> None:
         """out = R diag(diagonal) R^T: a diagonal in the gains' axes, in base axes (3, 3)."""

@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 import viser.transforms as tf
 
+from robot_sim.behaviors.ptwl import ptwl_goal
+from robot_sim.params import PtwlParams
 from server.launcher import ServerProcess, free_port, running_proxy
 from web.app import ConsoleApp
 from web.history import CommandHistory
@@ -26,6 +28,20 @@ def test_gizmo_pose_maps_back_to_the_displacement_that_reaches_it(frame: str) ->
         back_t, back_r = displacement_to(port, target, frame)
         np.testing.assert_allclose(back_t, translation, atol=1e-9)
         np.testing.assert_allclose(back_r, rotation, atol=1e-9)
+
+
+@pytest.mark.parametrize("frame", ["tool", "base"])
+def test_console_target_is_the_robots_ptwl_goal(frame: str) -> None:
+    """The contemplated/commanded marker and the robot compute the same goal (one rule, two sides)."""
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        port = (rng.uniform(-0.5, 0.5, 3), tf.SO3.exp(rng.uniform(-2, 2, 3)).wxyz)
+        translation, rotation = rng.uniform(-0.2, 0.2, 3), rng.uniform(-1.5, 1.5, 3)
+        params = PtwlParams(translation=list(translation), rotation=list(rotation), frame=frame)
+        p_goal, q_goal = ptwl_goal(port[0], port[1], params)
+        p_console, q_console = ptwl_target(port, translation, rotation, frame)
+        np.testing.assert_allclose(p_console, p_goal, atol=1e-12)
+        assert abs(float(np.dot(q_console, q_goal))) == pytest.approx(1.0, abs=1e-12)
 
 
 def test_tool_frame_follows_the_port_orientation() -> None:

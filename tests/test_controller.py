@@ -71,6 +71,8 @@ def test_joint_limit_is_approached_smoothly_never_hit() -> None:
     report = sim.run_behavior(Ptwl(PtwlParams(rotation=[0, 0, 0.5], duration=1.0, watchdog=3.0)))
     q6 = sim.data.qpos[5]
     assert report.exit is ExitCondition.TIMEOUT
+    assert report.detail.startswith("limited: joint_limit")  # says why it stopped short
+    assert sim.state().limited == "joint_limit"
     assert upper - 0.05 < q6 < upper
     assert abs(sim.data.qvel[5]) < 1e-3
 
@@ -98,6 +100,8 @@ def test_stretching_past_reach_slows_down_at_the_singularity() -> None:
         previous_cmd = sim.controller.qdot_cmd.copy()
         previous = qvel.copy()
     assert report.exit is ExitCondition.TIMEOUT  # the goal is out of reach; no inertial breach
+    assert report.detail.startswith("limited: singularity")
+    assert sim.state().limited == "singularity"
     assert report.peak_force < 12.0
     assert min(manipulability) < 0.1 * MANIPULABILITY_THRESHOLD  # it did reach the singular stretch
     assert peak_speed <= 1.02  # joint speeds stayed within the datasheet limits
@@ -118,6 +122,10 @@ def test_joint_speed_limits_scale_the_whole_motion() -> None:
         peak_cmd = max(peak_cmd, float(np.max(np.abs(sim.controller.qdot_cmd) / vmax)))
     assert min(scales) < 0.8  # the limit was active
     assert peak_cmd <= 1.0 + 1e-9
+    report = sim.run_behavior(Ptwl(PtwlParams(translation=[0.01, 0, 0])))  # preempts the fast turn
+    assert "speed" not in report.detail  # a gentle move is not limited
+    fast = sim.run_behavior(Ptwl(PtwlParams(rotation=[0, 0, -3.0], duration=0.05, preset="stiff")))
+    assert "speed" in fast.detail
 
 
 def test_same_seed_same_trajectory_and_seeds_move_the_fixture() -> None:

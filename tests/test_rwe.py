@@ -1,5 +1,7 @@
 """RWE relieves contact wrenches; the axis-selective variant keeps the others' stretch."""
 
+import mujoco
+import numpy as np
 import pytest
 
 from robot_sim.behaviors.base import ExitCondition
@@ -65,3 +67,50 @@ def test_hold_position_aborts_and_puts_the_attractor_on_the_port() -> None:
     moved = sim.controller.p_world_port.copy()
     sim.run(1.0)
     assert float(((sim.controller.p_world_port - moved) ** 2).sum() ** 0.5) < 1e-4
+
+
+def inserted_sleeve() -> Simulation:
+    sim = Simulation("sleeve_on_peg")
+    sim.run_behavior(Ptwl(PtwlParams(translation=[0, 0, 0.04], duration=4.0, force_threshold=40)))
+    return sim
+
+
+@pytest.mark.parametrize("axis", ["rx", "ry", "rz"])
+def test_rwe_on_one_rotation_axis_relieves_it_and_keeps_the_others(axis: str) -> None:
+    sim = inserted_sleeve()
+    ctl = sim.controller
+    i = ["rx", "ry", "rz"].index(axis)
+    # Turn the attractor about the axis (and push down a little): stretch on every axis.
+    rotation = [0.0, 0.0, 0.0]
+    rotation[i] = 0.03
+    sim.run_behavior(
+        Ptwl(
+            PtwlParams(rotation=rotation, translation=[0, 0, 0.003], frame="base", duration=0.5, watchdog=1.0)
+        )
+    )
+    ctl.measure_stretch()
+    before = ctl.stretch_world()
+    assert abs(before[3 + i]) > 0.005
+    report = sim.run_behavior(Rwe(RweParams(axes=[axis], duration=1.0, torque_residual=0.3)))
+    assert report.exit is ExitCondition.COMPLETED
+    after = ctl.stretch_world()
+    assert abs(after[3 + i]) < 1e-6  # the attractor sits on the port about this axis
+    kept = [j for j in range(6) if j != 3 + i]
+    np.testing.assert_allclose(after[kept], before[kept], atol=2e-3 * 0.03)
+    assert abs(report.final_wrench[3 + i]) <= 0.3
+
+
+def test_rwe_in_tool_axes_keeps_the_force_along_a_tilted_tool() -> None:
+    sim = Simulation("surface")
+    sim.run_behavior(Ptwl(PtwlParams(rotation=[0.3, 0, 0], frame="base", duration=1.0)))
+    press = PtwlParams(translation=[0.0, 0.0, GAP_TO_PLATE + 0.03], duration=4.0, force_threshold=12.0)
+    assert sim.run_behavior(Ptwl(press)).exit is ExitCondition.WRENCH_BREACH
+    sim.run(0.5)
+    ctl = sim.controller
+    tool_z = np.zeros(9)
+    mujoco.mju_quat2Mat(tool_z, ctl.q_world_port)
+    axis = tool_z.reshape(3, 3)[:, 2]
+    along_before = float(ctl.w_world_env_on_port[0:3] @ axis)
+    assert abs(along_before) > 5.0
+    sim.run_behavior(Rwe(RweParams(axes=["x", "y", "rx", "ry", "rz"], frame="tool", duration=1.5)))
+    assert float(ctl.w_world_env_on_port[0:3] @ axis) == pytest.approx(along_before, rel=0.15)

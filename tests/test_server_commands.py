@@ -186,3 +186,12 @@ def test_geometry_and_body_poses_let_a_client_draw_the_scene(robot: RobotClient)
     # The tool body and the port (on it) agree: the port is 96 mm along the tool's z.
     tool = np.array(state.bodies["arm/tool/tool"][0:3])
     assert np.linalg.norm(tool - np.array(state.port.position)) == pytest.approx(0.096, abs=1e-3)
+
+
+def test_a_fast_approach_is_accepted_with_a_warning(robot: RobotClient) -> None:
+    fast = robot.command("ptwl", translation=[0.0, 0.0, 0.1], duration=1.0, force_threshold=15.0)
+    assert len(fast.warnings) == 1 and "force_threshold 15 N" in fast.warnings[0]
+    slow = robot.command("ptwl", translation=[0.0, 0.0, 0.01], duration=5.0, force_threshold=15.0)
+    assert slow.warnings == []
+    robot.stop()
+    assert robot.state().limited is None  # at home nothing holds the arm back
