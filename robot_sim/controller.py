@@ -37,7 +37,7 @@ from robot_sim.arm import ArmLayout
 from robot_sim.errors import SimulationFault
 from robot_sim.gains import Gains
 from robot_sim.payload import Payload
-from robot_sim.pose_math import IDENTITY_QUAT, rotate_world
+from robot_sim.pose_math import IDENTITY_QUAT, rotate_world, turn6
 
 # Damped least squares: lambda^2 grows from 0 to LAMBDA_MAX^2 as the manipulability
 # sqrt(det(J J^T)) falls below MANIPULABILITY_THRESHOLD (Chiaverini's singularity-robust
@@ -299,10 +299,6 @@ class AdmittanceController:
         """(6, 6) K in base axes [N/m, N m/rad]."""
         return self._diag_world(self.gains.stiffness)
 
-    def damping_world(self) -> np.ndarray:
-        """(6, 6) B in base axes [N s/m, N m s/rad]."""
-        return self._diag_world(self.gains.damping)
-
     def twist_des(self) -> np.ndarray:
         """(6,) eq. 5's desired twist [m/s, rad/s], base axes, from the last signals."""
         s = self.stretch_world()
@@ -389,9 +385,9 @@ class AdmittanceController:
         """
         R = self.gains_rotation()
         k = self.gains.stiffness
-        w_gains = np.concatenate([R.T @ w_world[0:3], R.T @ w_world[3:6]])
+        w_gains = turn6(R.T, w_world)
         s_gains = np.where(k > STIFFNESS_EPS, -w_gains / np.maximum(k, STIFFNESS_EPS), 0.0)
-        self.place_attractor_from_port(np.concatenate([R @ s_gains[0:3], R @ s_gains[3:6]]))
+        self.place_attractor_from_port(turn6(R, s_gains))
         self.measure_stretch()
 
     def disable(self) -> None:

@@ -6,7 +6,6 @@ from typing import Literal
 import numpy as np
 
 GainsFrame = Literal["base", "tool"]
-GAINS_FRAMES: tuple[GainsFrame, ...] = ("base", "tool")
 
 
 @dataclass(frozen=True)

@@ -28,6 +28,11 @@ def rotation_matrix(quat: np.ndarray) -> np.ndarray:
     return flat.reshape(3, 3)
 
 
+def turn6(R: np.ndarray, v6: np.ndarray) -> np.ndarray:
+    """(6,) both 3-blocks of a twist, wrench or stretch (linear, angular) turned by R (3, 3)."""
+    return np.concatenate([R @ v6[0:3], R @ v6[3:6]])
+
+
 def rotvec_from_to(q_from: np.ndarray, q_to: np.ndarray) -> np.ndarray:
     """(3,) base-axes rotation vector r [rad] with q_to = exp(r) * q_from (allocates)."""
     q_inv = np.zeros(4)

@@ -20,7 +20,10 @@ def fit_time_constant(t: np.ndarray, error: np.ndarray) -> float:
 
 
 def step_response(sim: Simulation, axis: int, step: float, seconds: float) -> tuple[np.ndarray, np.ndarray]:
-    """Step the attractor by `step` on base axis `axis` (0-2 m, 3-5 rad); the stretch over time."""
+    """Step the attractor by `step` on base axis `axis` (0-2 m, 3-5 rad); the stretch over time.
+
+    The stretch is signed along the step: it starts at |step| and goes negative on overshoot.
+    """
     ctl = sim.controller
     sim.run(0.2)  # settle
     if axis < 3:
@@ -33,5 +36,5 @@ def step_response(sim: Simulation, axis: int, step: float, seconds: float) -> tu
     for _ in range(int(seconds / sim.control_dt)):
         sim.step()
         times.append(sim.time)
-        errors.append(abs(ctl.stretch_world()[axis]))
+        errors.append(float(np.sign(step)) * ctl.stretch_world()[axis])
     return np.array(times) - times[0], np.array(errors)

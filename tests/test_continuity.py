@@ -36,6 +36,21 @@ def force_z_over(sim: Simulation, seconds: float) -> np.ndarray:
     return np.array(out)
 
 
+def assert_force_kept(sim: Simulation, before: float) -> None:
+    """The press stays within 10 % of `before` over the next 50 ms."""
+    assert np.max(np.abs(force_z_over(sim, 0.05) - before)) < 0.10 * before
+
+
+def sliding_on_the_plate(seconds: float) -> tuple[Simulation, float]:
+    """Pressing, then a lateral PTWL for `seconds`; the simulation and the press now [N]."""
+    sim = pressing()
+    sim.start(Ptwl(LATERAL))
+    sim.run(seconds)
+    before = float(sim.controller.w_world_env_on_port[2])
+    assert before > 0.5 * PRESS_N
+    return sim, before
+
+
 LATERAL = PtwlParams(translation=[0.02, 0, 0], frame="base", duration=4.0, force_threshold=40)
 STARTS: dict[str, Behavior] = {
     "ptwl_lateral": Ptwl(LATERAL),
@@ -54,31 +69,22 @@ def test_starting_a_command_keeps_the_held_force(name: str) -> None:
     sim.step()
     # The attractor starts where it was (at most one tick of the behavior's own motion).
     assert np.linalg.norm(sim.controller.p_world_attractor - p_attractor) < 1e-4
-    forces = force_z_over(sim, 0.05)
-    assert np.max(np.abs(forces - before)) < 0.10 * before
+    assert_force_kept(sim, before)
 
 
 def test_preemption_keeps_the_held_force_and_ends_the_first_aborted() -> None:
-    sim = pressing()
-    sim.start(Ptwl(LATERAL))
-    sim.run(0.5)
-    before = float(sim.controller.w_world_env_on_port[2])
-    assert before > 0.5 * PRESS_N
+    sim, before = sliding_on_the_plate(0.5)
     preempted = sim.start(Dither(DitherParams(preset="translational_push", force_threshold=40)))
     assert preempted is not None and preempted.exit is ExitCondition.ABORTED
     assert preempted.detail == "preempted"
-    forces = force_z_over(sim, 0.05)
-    assert np.max(np.abs(forces - before)) < 0.10 * before
+    assert_force_kept(sim, before)
 
 
 def test_stop_keeps_the_press_and_stops_free_motion() -> None:
-    sim = pressing()
-    sim.start(Ptwl(LATERAL))
-    sim.run(0.3)
-    before = float(sim.controller.w_world_env_on_port[2])
+    sim, before = sliding_on_the_plate(0.3)
     report = sim.hold_position()
     assert report is not None and report.exit is ExitCondition.ABORTED and report.detail == "stopped"
-    assert np.max(np.abs(force_z_over(sim, 0.05) - before)) < 0.10 * before
+    assert_force_kept(sim, before)
     assert float(np.mean(force_z_over(sim, 1.0)[-100:])) == pytest.approx(before, rel=0.10)
     # In free space STOP holds the port: the attractor goes on the port, the arm stops.
     sim = Simulation("free_space")

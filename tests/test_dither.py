@@ -3,28 +3,17 @@ preset is tried in free space and in a jam."""
 
 import math
 
-import mujoco
 import numpy as np
 import pytest
 
 from robot_sim.behaviors import Dither, ExitCondition, Ptwl, Rwe
 from robot_sim.behaviors.dither import perpendicular_basis
 from robot_sim.params import DitherParams, PtwlParams, RweParams
+from robot_sim.pose_math import rotvec_from_to
 from robot_sim.presets import default_presets
 from robot_sim.scenes import sleeve_insertion_depth
 from robot_sim.sim import Simulation
 from robot_sim.strategies.sleeve_on_peg import INSERT
-
-
-def rotvec_between(q_to: np.ndarray, q_from: np.ndarray) -> np.ndarray:
-    """Base-axes rotation vector taking q_from to q_to."""
-    q_from_inv = np.zeros(4)
-    q_rel = np.zeros(4)
-    mujoco.mju_negQuat(q_from_inv, q_from)
-    mujoco.mju_mulQuat(q_rel, q_to, q_from_inv)
-    out = np.zeros(3)
-    mujoco.mju_quat2Vel(out, q_rel, 1.0)
-    return out
 
 
 def circle_fit(t: np.ndarray, xy: np.ndarray) -> tuple[float, float]:
@@ -87,7 +76,7 @@ def test_torsional_preset_turns_about_its_axis_with_the_origin_on_it(preset: str
         report = sim.step()
         if sim.time < 1.0 / params.frequency or sim.time > params.duration:
             continue
-        turn = rotvec_between(ctl.q_world_attractor, q0)
+        turn = rotvec_from_to(q0, ctl.q_world_attractor)
         t.append(sim.time - sim.control_dt)  # the attractor was set for the tick's start
         angle.append(float(turn @ axis))
         off_axis_turn.append(float(np.linalg.norm(turn - (turn @ axis) * axis)))

@@ -17,12 +17,7 @@ import numpy as np
 from robot_sim.behaviors.base import Behavior, ExitCondition
 from robot_sim.controller import AdmittanceController
 from robot_sim.params import RweParams
-from robot_sim.pose_math import rotation_matrix
-
-
-def _turn(R: np.ndarray, v6: np.ndarray) -> np.ndarray:
-    """(6,) both 3-blocks of v6 turned by R."""
-    return np.concatenate([R @ v6[0:3], R @ v6[3:6]])
+from robot_sim.pose_math import rotation_matrix, turn6
 
 
 class Rwe(Behavior):
@@ -40,8 +35,8 @@ class Rwe(Behavior):
         ctl.measure_stretch()
         if self.params.frame == "tool":
             self._R_world_axes = rotation_matrix(ctl.q_world_port)
-        stretch_axes = _turn(self._R_world_axes.T, ctl.stretch_world())
-        self._kept_stretch[:] = _turn(self._R_world_axes, np.where(self._mask, 0.0, stretch_axes))
+        stretch_axes = turn6(self._R_world_axes.T, ctl.stretch_world())
+        self._kept_stretch[:] = turn6(self._R_world_axes, np.where(self._mask, 0.0, stretch_axes))
         ctl.place_attractor_from_port(self._kept_stretch)
 
     def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:
@@ -51,7 +46,7 @@ class Rwe(Behavior):
         return ExitCondition.COMPLETED if self.relieved(ctl.w_world_env_on_port) else ExitCondition.TIMEOUT
 
     def relieved(self, wrench_world: np.ndarray) -> bool:
-        selected = np.where(self._mask, _turn(self._R_world_axes.T, wrench_world), 0.0)
+        selected = np.where(self._mask, turn6(self._R_world_axes.T, wrench_world), 0.0)
         force = math.sqrt(float(selected[0:3] @ selected[0:3]))
         torque = math.sqrt(float(selected[3:6] @ selected[3:6]))
         return force <= self.params.force_residual and torque <= self.params.torque_residual
