@@ -111,3 +111,15 @@ def test_bumpless_start_in_tool_frame_balances_the_press() -> None:
     assert np.abs(ctl.twist_des()).max() < 1e-9
     sim.run(0.5)
     assert ctl.w_world_env_on_port[2] == pytest.approx(before[2], rel=0.05)
+
+
+def test_a_ptwl_chooses_the_gains_frame() -> None:
+    sim = Simulation("free_space")
+    medium = sim.controller.gains
+    sim.run_behavior(Ptwl(PtwlParams(translation=[0.01, 0, 0], gains_frame="tool")))
+    assert sim.controller.gains.frame == "tool"
+    np.testing.assert_array_equal(sim.controller.gains.stiffness, medium.stiffness)  # same diagonal
+    sim.run_behavior(Ptwl(PtwlParams(translation=[0.01, 0, 0], preset="soft")))
+    assert sim.controller.gains.frame == "base"  # the preset's frame
+    sim.run_behavior(Ptwl(PtwlParams(translation=[0.01, 0, 0])))
+    assert sim.controller.gains.frame == "base"  # unchanged when the PTWL says nothing

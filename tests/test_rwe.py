@@ -8,6 +8,7 @@ from robot_sim.behaviors.base import ExitCondition
 from robot_sim.behaviors.ptwl import Ptwl
 from robot_sim.behaviors.rwe import Rwe
 from robot_sim.params import PtwlParams, RweParams
+from robot_sim.pose_math import rotation_matrix
 from robot_sim.sim import Simulation
 from tests.test_ptwl import GAP_TO_PLATE
 
@@ -114,3 +115,16 @@ def test_rwe_in_tool_axes_keeps_the_force_along_a_tilted_tool() -> None:
     assert abs(along_before) > 5.0
     sim.run_behavior(Rwe(RweParams(axes=["x", "y", "rx", "ry", "rz"], frame="tool", duration=1.5)))
     assert float(ctl.w_world_env_on_port[0:3] @ axis) == pytest.approx(along_before, rel=0.15)
+
+
+def test_rwe_axes_in_tool_frame_are_the_ports_axes() -> None:
+    sim = Simulation("free_space")
+    sim.run_behavior(Ptwl(PtwlParams(rotation=[0.4, 0.3, 0], frame="base", duration=1.0)))
+    ctl = sim.controller
+    R_world_port = rotation_matrix(ctl.q_world_port)
+    ctl.p_world_attractor[:] = ctl.p_world_port + R_world_port @ [0.004, 0.003, 0.002]
+    sim.start(Rwe(RweParams(axes=["x"], frame="tool", duration=0.5)))
+    sim.step()
+    stretch_tool = R_world_port.T @ ctl.stretch_world()[0:3]
+    assert abs(stretch_tool[0]) < 1e-4  # tool x relieved
+    np.testing.assert_allclose(stretch_tool[1:], [0.003, 0.002], atol=2e-4)  # tool y, z kept
