@@ -40,6 +40,33 @@ BAD_COMMANDS = {
         422,
         ["torque_threshold", "(0, inf)"],
     ),
+    "on_breach_unknown": ('{"type": "ptwl", "on_breach": "stop"}', 422, ["on_breach", "'limit' or 'freeze'"]),
+    "dither_on_breach_unknown": (
+        '{"type": "dither", "on_breach": 1}',
+        422,
+        ["on_breach", "'limit' or 'freeze'"],
+    ),
+    "gains_frame_unknown": (
+        '{"type": "ptwl", "gains_frame": "world"}',
+        422,
+        ["gains_frame", "'base' or 'tool'"],
+    ),
+    "rwe_frame_unknown": ('{"type": "rwe", "frame": "port"}', 422, ["frame", "'base' or 'tool'"]),
+    "conical_dither_is_gone": (
+        '{"type": "dither", "mode": "conical"}',
+        422,
+        ["mode", "'torsional' or 'translational'"],
+    ),
+    "damping_under_the_floor": (
+        '{"type": "ptwl", "stiffness": [500,500,500,10,10,10], "damping": [150,1000,1000,50,50,50]}',
+        422,
+        ["damping[0] (x) must be in [200, 50000] N s/m"],
+    ),
+    "time_constant_under_first_order_floor": (
+        '{"type": "ptwl", "stiffness": [4000,100,100,10,10,10], "damping": [1000,1000,1000,50,50,50]}',
+        422,
+        ["damping[0]/stiffness[0] (x) must be >= 0.3 s", "first-order"],
+    ),
     "damping_zero": (
         '{"type": "ptwl", "stiffness": [100,100,100,10,10,10], "damping": [1000,0,1000,50,50,50]}',
         422,
