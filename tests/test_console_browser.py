@@ -144,6 +144,18 @@ def test_ptwl_typed_and_sent_from_the_page_reaches_its_goal(browser, stack) -> N
     page.close()
 
 
+def test_a_fast_approach_is_sent_with_a_warning_on_the_page(browser, stack) -> None:  # type: ignore[no-untyped-def]
+    reset(stack[1])
+    page = open_console(browser, stack[2].url)
+    set_fields(page, "Translation [mm]", 0, 0, -100)  # 100 mm in 1 s: B v = 100 N against 20 N
+    set_fields(page, "Duration [s]", 1.0)
+    previous = send(page, "Send cmd")
+    page.get_by_text("check the approach").first.wait_for(timeout=10_000)
+    assert page.get_by_text("force_threshold 20 N").first.is_visible()
+    wait_status(page, "goal_reached", after=previous)  # free space: nothing to hit, still accepted
+    page.close()
+
+
 def test_rwe_and_dither_from_the_page_end_with_their_exits(browser, stack) -> None:  # type: ignore[no-untyped-def]
     reset(stack[1])
     page = open_console(browser, stack[2].url)
