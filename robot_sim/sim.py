@@ -28,6 +28,8 @@ from robot_sim.payload import Payload
 from robot_sim.presets import default_presets
 from robot_sim.scenes import Scene, TaskProgress, get_scene
 
+SETTLE_S = 0.3  # [s] physics in position hold at every (re)load, before compliance starts
+
 
 def default_gains() -> Gains:
     """The config's default stiffness/damping preset."""
@@ -127,6 +129,11 @@ class Simulation:
         start = spec.home_qpos if qpos is None else qpos
         data.qpos[layout.qpos_adr] = start
         data.act[layout.act_adr] = start
+        # Let the servos take up the tool's weight in position hold before compliance starts:
+        # otherwise the arm sags ~0.1 mm and creeps for a second after every reset, and a
+        # command sent right away starts from a port that is still moving.
+        mujoco.mj_step(model, data, round(SETTLE_S / PHYSICS_TIMESTEP_S))
+        data.time = 0.0
         mujoco.mj_forward(model, data)
         self.scene = spec
         self.seed = seed
