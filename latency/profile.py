@@ -13,11 +13,13 @@ MAX_DELAY_S = 600.0
 
 
 class StrictModel(BaseModel):
-    model_config = ConfigDict(allow_inf_nan=False, extra="forbid")
+    model_config = ConfigDict(allow_inf_nan=False, extra="forbid", strict=True)
 
 
 Seconds = Annotated[float, Field(ge=0.0, le=MAX_DELAY_S)]
 Probability = Annotated[float, Field(ge=0.0, le=1.0)]
+Seed = Annotated[int, Field(ge=0, le=2**32 - 1)]
+MAX_DESCRIPTION_CHARS = 2000
 
 
 class Jitter(StrictModel):
@@ -27,7 +29,7 @@ class Jitter(StrictModel):
         "none", description="uniform: +-amount; normal: standard deviation amount"
     )
     amount: Seconds = Field(0.0, description="[s] half-width (uniform) or standard deviation (normal)")
-    seed: int = Field(0, description="random seed: the same seed gives the same delays")
+    seed: Seed = Field(0, description="random seed: the same seed gives the same delays")
 
 
 class Loss(StrictModel):
@@ -41,7 +43,7 @@ class Loss(StrictModel):
     p_bad_to_good: Probability = Field(1.0, description="gilbert_elliott: per-message chance to leave it")
     loss_in_good: Probability = Field(0.0, description="gilbert_elliott: loss chance in the good state")
     loss_in_bad: Probability = Field(1.0, description="gilbert_elliott: loss chance in the bad state")
-    seed: int = Field(0, description="random seed")
+    seed: Seed = Field(0, description="random seed")
 
 
 class Blackout(StrictModel):
@@ -96,7 +98,7 @@ class LinkProfile(StrictModel):
     overflow: Literal["drop_newest"] = Field(
         "drop_newest", description="what a full buffer does to new messages"
     )
-    description: str = Field("", description="where the figures come from")
+    description: str = Field("", max_length=MAX_DESCRIPTION_CHARS, description="where the figures come from")
 
     def merged(self, update: dict[str, Any]) -> "LinkProfile":
         """This profile with the fields of a partial update (nested models replaced whole)."""

@@ -11,11 +11,17 @@
   trip the 20 s keepalive of websockets/uvicorn and kill healthy connections. Whether the robot
   is alive is judged end to end from the telemetry's age (`sent_at`), not from pings.
 - `/_link/...` is the control API: local, never delayed, never forwarded.
+- Access (guard/): Host, Origin and the token are checked on every route and socket before
+  anything is delayed or forwarded; the upstream sees no Origin (it was judged here). Bodies
+  are capped at 64 KiB and must be strict JSON.
+- STOP always gets through: a request whose client goes away is cancelled upstream at once (an
+  abandoned long-poll frees its connection), and the upstream pool has no connection cap, so
+  200 open long-polls cannot queue a POST /api/stop behind them.
 """
 
 import asyncio
 import contextlib
-import hmac
+import gc
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from typing import Any
@@ -28,7 +34,13 @@ from starlette.requests import Request
 from starlette.responses import JSONResponse, Response
 from starlette.routing import Route, WebSocketRoute
 from starlette.websockets import WebSocket, WebSocketDisconnect
+from yarl import URL
 
+from guard.access import AccessPolicy
+from guard.asgi import AccessGuard
+from guard.body_limit import BODY_LIMIT_BYTES, BodyLimitMiddleware
+from guard.disconnect import client_gone
+from guard.json_body import JsonBodyError, StrictJsonBody, parse_json
 from latency.clock import RealTimeDriver
 from latency.delay_line import Dropped
 from latency.link import Link
@@ -46,6 +58,7 @@ HOP_BY_HOP = {
     "host",
     "content-length",
     "content-encoding",
+    "origin",  # judged here; the upstream would see the proxy's origin, not the page's
 }
 KEEPALIVE_EXPIRY_S = 2.0  # below uvicorn's 5 s idle timeout: never reuse a connection it dropped
 UPSTREAM_TIMEOUT_S = 90.0  # long-polls wait up to 60 s upstream
@@ -78,11 +91,11 @@ def _released(loop: asyncio.AbstractEventLoop) -> tuple["asyncio.Future[None]", 
 
 
 class LinkProxy:
-    def __init__(self, upstream: str, link: Link, token: str | None = None) -> None:
+    def __init__(self, upstream: str, link: Link, access: AccessPolicy) -> None:
         self.upstream = upstream.rstrip("/")
-        self.ws_upstream = self.upstream.replace("http://", "ws://", 1).replace("https://", "wss://", 1)
+        self.upstream_url = URL(self.upstream)
         self.link = link
-        self.token = token
+        self.access = access
         self.driver: RealTimeDriver | None = None
         self.http: aiohttp.ClientSession | None = None
 
@@ -91,10 +104,14 @@ class LinkProxy:
     async def lifespan(self, app: Starlette) -> AsyncIterator[None]:
         self.driver = RealTimeDriver(self.link)
         self.driver.start()
+        # Everything alive now lives as long as the proxy: keep it out of the collector's scans,
+        # so a full collection pauses the release timer for well under a millisecond.
+        gc.freeze()
         self.http = aiohttp.ClientSession(
             self.upstream,
             timeout=aiohttp.ClientTimeout(total=UPSTREAM_TIMEOUT_S, sock_connect=5.0),
-            connector=aiohttp.TCPConnector(keepalive_timeout=KEEPALIVE_EXPIRY_S),
+            # limit=0: no pool cap, so open long-polls can never make a STOP wait for a connection.
+            connector=aiohttp.TCPConnector(keepalive_timeout=KEEPALIVE_EXPIRY_S, limit=0),
             auto_decompress=False,
             skip_auto_headers=("User-Agent", "Accept-Encoding"),
         )
@@ -108,7 +125,7 @@ class LinkProxy:
 
     def app(self) -> Starlette:
         methods = ["GET", "POST", "PUT", "PATCH", "DELETE", "HEAD", "OPTIONS"]
-        return Starlette(
+        app = Starlette(
             routes=[
                 Route("/_link/profile", self.profile, methods=["GET", "PUT"]),
                 Route("/_link/stats", self.stats, methods=["GET"]),
@@ -117,26 +134,27 @@ class LinkProxy:
             ],
             lifespan=self.lifespan,
         )
+        # Outermost first: who may ask (Host, Origin, token), how much (64 KiB), then strict JSON.
+        app.add_middleware(StrictJsonBody)
+        app.add_middleware(BodyLimitMiddleware, limit=BODY_LIMIT_BYTES)
+        app.add_middleware(AccessGuard, policy=self.access)
+        return app
+
+    def _upstream_target(self, path: str, query: str, scheme: str | None = None) -> URL | None:
+        """The upstream URL for a request path, or None if the path could name another host
+        (`//host/...` is a network-path reference: joined naively, it leaves the upstream)."""
+        if not path.startswith("/") or path.startswith("//"):
+            return None
+        base = self.upstream_url if scheme is None else self.upstream_url.with_scheme(scheme)
+        return base.with_path(path).with_query(query) if query else base.with_path(path)
 
     # -------------------------------------------------------------- control API
-    def _authorized(self, request: Request) -> Response | None:
-        if self.token is None:
-            return None
-        header = request.headers.get("authorization", "")
-        if not header.lower().startswith("bearer "):
-            return JSONResponse({"detail": "missing access token: send Authorization: Bearer <token>"}, 401)
-        if not hmac.compare_digest(header[7:].strip().encode(), self.token.encode()):
-            return JSONResponse({"detail": "access token rejected"}, 403)
-        return None
-
     async def profile(self, request: Request) -> Response:
-        if (denied := self._authorized(request)) is not None:
-            return denied
         if request.method == "PUT":
             try:
-                update = await request.json()
-            except ValueError as err:
-                return JSONResponse({"detail": f"malformed JSON: {err}"}, 422)
+                update = parse_json(await request.body())
+            except JsonBodyError as err:
+                return JSONResponse({"detail": str(err)}, 422)
             if not isinstance(update, dict):
                 return JSONResponse({"detail": "body must be a JSON object of profile fields"}, 422)
             try:
@@ -147,8 +165,6 @@ class LinkProxy:
         return JSONResponse(self.link.profile_view())
 
     async def stats(self, request: Request) -> Response:
-        if (denied := self._authorized(request)) is not None:
-            return denied
         return JSONResponse(self.link.stats_view())
 
     # --------------------------------------------------------------------- HTTP
@@ -172,13 +188,27 @@ class LinkProxy:
         self.driver.notify(direction)
 
     async def forward_http(self, request: Request) -> Response:
-        assert self.http is not None
+        target = self._upstream_target(request.url.path, request.url.query)
+        if target is None:
+            return JSONResponse({"detail": f"no such path {request.url.path!r}"}, 404)
         body = await request.body()
+        exchange = asyncio.create_task(self._exchange(request, target, body))
+        gone = asyncio.create_task(client_gone(request))
+        done, _ = await asyncio.wait({exchange, gone}, return_when=asyncio.FIRST_COMPLETED)
+        if exchange not in done:
+            # The client went away: stop holding its request and free the upstream connection.
+            exchange.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await exchange
+            return Response(status_code=499)
+        gone.cancel()
+        return exchange.result()
+
+    async def _exchange(self, request: Request, target: URL, body: bytes) -> Response:
         head = sum(len(k) + len(v) for k, v in request.headers.items())
         dropped = await self._through("uplink", len(body) + head, "http_request")
         if dropped is not None:
             return JSONResponse({"detail": f"link dropped the request ({dropped.reason})"}, 503)
-        target = request.url.path + (f"?{request.url.query}" if request.url.query else "")
         try:
             status, headers, content = await self._upstream_request(request, target, body)
         except (aiohttp.ClientError, OSError, TimeoutError) as err:
@@ -191,7 +221,7 @@ class LinkProxy:
         return Response(content, status_code=status, headers=headers)
 
     async def _upstream_request(
-        self, request: Request, target: str, body: bytes
+        self, request: Request, target: URL, body: bytes
     ) -> tuple[int, dict[str, str], bytes]:
         assert self.http is not None
         attempts = 2 if request.method in IDEMPOTENT else 1
@@ -213,11 +243,15 @@ class LinkProxy:
 
     # ---------------------------------------------------------------- WebSocket
     async def relay_websocket(self, ws: WebSocket) -> None:
-        target = self.ws_upstream + ws.url.path + (f"?{ws.url.query}" if ws.url.query else "")
+        scheme = "wss" if self.upstream_url.scheme == "https" else "ws"
+        target = self._upstream_target(ws.url.path, ws.url.query, scheme)
+        if target is None:
+            await ws.send_denial_response(JSONResponse({"detail": f"no such path {ws.url.path!r}"}, 404))
+            return
         auth = ws.headers.get("authorization")
         try:
             upstream = await websockets.connect(
-                target,
+                str(target),
                 additional_headers={"Authorization": auth} if auth else None,
                 open_timeout=10.0,
                 max_size=None,

@@ -1,4 +1,9 @@
-"""Optional per-message record, one JSON object a line."""
+"""Optional per-message record, one JSON object a line.
+
+Line-buffered: each record reaches the file as it is written, so a crash (kill -9) loses at most
+the line being written. At 2 x 50 Hz telemetry that is ~100 write calls a second, nothing next
+to the proxy's own work.
+"""
 
 import json
 from pathlib import Path
@@ -9,7 +14,7 @@ from latency.delay_line import Dropped, Entry
 
 class Recorder:
     def __init__(self, path: Path) -> None:
-        self._file: IO[str] = path.open("a", buffering=1 << 16)
+        self._file: IO[str] = path.open("a", buffering=1)
 
     def released(self, entry: Entry, now: float) -> None:
         self._write(

@@ -1,6 +1,5 @@
 """Run the proxy with uvicorn (`ptwl proxy`)."""
 
-import ipaddress
 import signal
 import socket
 from dataclasses import dataclass
@@ -8,8 +7,9 @@ from pathlib import Path
 
 import uvicorn
 
+from guard.access import AccessPolicy, check_token_setting
 from latency.link import Link
-from latency.named import LinkConfigError, named_profile
+from latency.named import named_profile
 from latency.profile import LinkProfile
 from latency.proxy import LinkProxy
 from latency.record import Recorder
@@ -25,6 +25,8 @@ class ProxyConfig:
     downlink: float | None = None
     record: Path | None = None
     token: str | None = None
+    allow_hosts: tuple[str, ...] = ()
+    allow_origins: tuple[str, ...] = ()
 
     def initial_profile(self) -> LinkProfile:
         base = named_profile(self.profile) if self.profile else LinkProfile()
@@ -32,26 +34,17 @@ class ProxyConfig:
         return base.merged(update) if update else base
 
 
-def _loopback(host: str) -> bool:
-    try:
-        return host == "localhost" or ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
-
-
 def serve_proxy(config: ProxyConfig) -> None:
-    if not _loopback(config.host) and not config.token:
-        raise LinkConfigError(
-            f"refusing to bind {config.host}: a non-loopback address needs an access token (--token)"
-        )
+    check_token_setting(config.token, config.host)
     profile = config.initial_profile()
     recorder = Recorder(config.record) if config.record else None
-    proxy = LinkProxy(config.upstream, Link(profile, recorder=recorder), token=config.token)
     family, kind, proto, _, address = socket.getaddrinfo(config.host, config.port, type=socket.SOCK_STREAM)[0]
     sock = socket.socket(family, kind, proto)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     sock.bind(address)
     host, port = sock.getsockname()[0:2]
+    access = AccessPolicy(config.host, port, config.token, config.allow_hosts, config.allow_origins)
+    proxy = LinkProxy(config.upstream, Link(profile, recorder=recorder), access)
     print(
         f"ptwl proxy: link on http://{host}:{port} -> {config.upstream} "
         f"(uplink {profile.uplink:g} s, downlink {profile.downlink:g} s)",

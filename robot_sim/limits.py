@@ -33,6 +33,12 @@ MAX_ROTATION_RAD = math.pi
 MAX_DITHER_AMPLITUDE = 0.35  # [rad] torsional tilt; translational radius has its own cap below
 MAX_DITHER_RADIUS_M = 0.02
 MAX_DITHER_FREQUENCY_HZ = 10.0
+# Caps on thresholds: a threshold must be able to end a behavior. 500 N / 50 N m is far above
+# any wrench the compliance presets reach in the tasks (tens of N), and far below what would
+# read as "no limit" (a 1e308 N threshold passed validation before).
+MAX_FORCE_THRESHOLD_N = 500.0
+MAX_TORQUE_THRESHOLD_NM = 50.0
+MAX_SEED = 2**32 - 1  # scene seeds: numpy takes any non-negative int; one range to document
 
 STIFFNESS_MAX = (20000.0, 20000.0, 20000.0, 1000.0, 1000.0, 1000.0)  # [N/m x3, N m/rad x3]
 DAMPING_MIN = (200.0, 200.0, 200.0, 20.0, 20.0, 20.0)  # [N s/m x3, N m s/rad x3]

@@ -41,8 +41,9 @@ def _range(lo: float, hi: float, unit: str, *, lo_open: bool = False, hi_open: b
     return WrapValidator(check)
 
 
-def _vector(limit: float, unit: str, *, nonzero: bool = False) -> WrapValidator:
-    """Finite components and magnitude <= limit (and > 0 when `nonzero`)."""
+def _vector(limit: float, unit: str, *, direction: bool = False) -> WrapValidator:
+    """Finite components and magnitude <= limit; a `direction` must be non-zero and is returned
+    as a unit vector (the one place it is normalized)."""
 
     def check(value: Any, handler: ValidatorFunctionWrapHandler) -> list[float]:
         if isinstance(value, list | tuple):
@@ -50,11 +51,13 @@ def _vector(limit: float, unit: str, *, nonzero: bool = False) -> WrapValidator:
                 if isinstance(v, float) and not math.isfinite(v):
                     raise ValueError(f"component {i} must be a finite number, got {v}")
         vec: list[float] = handler(value)
-        norm = math.sqrt(sum(v * v for v in vec))
+        norm = math.hypot(*vec)  # no overflow: sum of squares of 1.3e154 is inf
         if norm > limit:
             raise ValueError(f"magnitude must be <= {limit:g} {unit}, got {norm:.4g}")
-        if nonzero and norm < 1e-9:
-            raise ValueError("must be a non-zero direction")
+        if direction:
+            if norm < 1e-9:
+                raise ValueError("must be a non-zero direction")
+            return [v / norm for v in vec]
         return vec
 
     return WrapValidator(check)
@@ -64,11 +67,14 @@ Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
 Vec6 = Annotated[list[float], Field(min_length=6, max_length=6), _vector(math.inf, "")]
 Duration = Annotated[float, _range(0.0, limits.MAX_DURATION_S, "s", lo_open=True)]
 Threshold = Annotated[float, _range(0.0, math.inf, "", lo_open=True, hi_open=True)]
+ForceThreshold = Annotated[float, _range(0.0, limits.MAX_FORCE_THRESHOLD_N, "N", lo_open=True)]
+TorqueThreshold = Annotated[float, _range(0.0, limits.MAX_TORQUE_THRESHOLD_NM, "N m", lo_open=True)]
 
 
 class StrictModel(BaseModel):
-    # NaN and infinities are refused everywhere; unknown fields are errors, not silently dropped.
-    model_config = ConfigDict(allow_inf_nan=False, extra="forbid")
+    # NaN and infinities are refused everywhere; unknown fields are errors, not silently dropped;
+    # strict: `true` or "5" is not a number (JSON ints are still fine where floats are asked).
+    model_config = ConfigDict(allow_inf_nan=False, extra="forbid", strict=True)
 
 
 OnBreach = Literal["limit", "freeze"]
@@ -107,8 +113,10 @@ class PtwlParams(StrictModel):
     )
     frame: Literal["tool", "base"] = Field("tool", description="axes of translation and rotation")
     duration: Duration = Field(2.0, description="[s] attractor travel time, (0, 600]")
-    force_threshold: Threshold = Field(20.0, description="[N] |f| above this ends wrench_breach")
-    torque_threshold: Threshold = Field(2.0, description="[N m] |tau| above this ends wrench_breach")
+    force_threshold: ForceThreshold = Field(20.0, description="[N] |f| above this ends wrench_breach; <= 500")
+    torque_threshold: TorqueThreshold = Field(
+        2.0, description="[N m] |tau| above this ends wrench_breach; <= 50"
+    )
     position_tolerance: Threshold = Field(0.002, description="[m] goal_reached when within this")
     orientation_tolerance: Threshold = Field(0.02, description="[rad] and within this")
     watchdog: Duration | None = Field(None, description="[s] timeout; >= duration; default duration + 5")
@@ -171,8 +179,8 @@ class DitherParams(StrictModel):
         "the origin circles the axis, orientation fixed",
     )
     direction: Literal["push", "pull"] = Field("push", description="advance along the axis, or retreat")
-    axis: Annotated[Vec3, _vector(math.inf, "", nonzero=True)] = Field(
-        default_factory=lambda: [0.0, 0.0, 1.0], description="tool frame direction (normalized)"
+    axis: Annotated[Vec3, _vector(math.inf, "", direction=True)] = Field(
+        default_factory=lambda: [0.0, 0.0, 1.0], description="tool frame direction (any length; normalized)"
     )
     amplitude: Annotated[float, _range(0.0, limits.MAX_DITHER_AMPLITUDE, "rad or m", lo_open=True)] = Field(
         0.03, description="[rad] turn (torsional) or [m] circle radius (translational)"
@@ -184,8 +192,8 @@ class DitherParams(StrictModel):
         0.01, description="[m] distance along the axis"
     )
     duration: Duration = Field(4.0, description="[s] time to cover `travel`, (0, 600]")
-    force_threshold: Threshold = Field(30.0, description="[N]")
-    torque_threshold: Threshold = Field(3.0, description="[N m]")
+    force_threshold: ForceThreshold = Field(30.0, description="[N] <= 500")
+    torque_threshold: TorqueThreshold = Field(3.0, description="[N m] <= 50")
     watchdog: Duration | None = Field(None, description="[s] >= duration; default duration + 5")
     on_breach: OnBreach = Field("limit", description=ON_BREACH_DOC)
 

@@ -6,11 +6,14 @@ from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
 
-from server.commands import CommandBook
+from guard.asgi import AccessGuard
+from guard.body_limit import BodyLimitMiddleware
+from guard.json_body import StrictJsonBody
+from server.commands import CommandBook, CommandRecord
 from server.config import BODY_LIMIT_BYTES, HISTORY_MAX, QUEUE_MAX, ServerConfig
-from server.errors import BodyLimitMiddleware, install_error_handlers
+from server.errors import install_error_handlers
 from server.routes import commands, debug, robot, scenes, telemetry
-from server.runner import SimRunner
+from server.runner import SimRunner, command_event
 from server.telemetry import Broadcaster
 from server.waiters import Waiters
 
@@ -21,14 +24,23 @@ def create_app(config: ServerConfig) -> FastAPI:
         loop = asyncio.get_running_loop()
         broadcaster = Broadcaster()
         waiters = Waiters()
-        book = CommandBook(QUEUE_MAX, HISTORY_MAX)
+
+        def announce(text: str, command_id: int, done: bool) -> None:
+            broadcaster.publish(text)
+            if done:
+                waiters.notify(command_id)
+
+        def on_change(record: CommandRecord) -> None:
+            # Any thread, under the book's lock: serialise now (a snapshot), deliver on the loop.
+            loop.call_soon_threadsafe(announce, command_event(record), record.id, record.status == "done")
+
+        book = CommandBook(QUEUE_MAX, HISTORY_MAX, on_change)
         runner = SimRunner(
             config.scene,
             config.seed,
             config.telemetry_hz,
             book,
             publish=lambda text: loop.call_soon_threadsafe(broadcaster.publish, text),
-            on_command_done=lambda cid: loop.call_soon_threadsafe(waiters.notify, cid),
         )
         app.state.broadcaster = broadcaster
         app.state.waiters = waiters
@@ -52,7 +64,10 @@ def create_app(config: ServerConfig) -> FastAPI:
     )
     app.state.config = config
     install_error_handlers(app)
+    # Outermost first: who may ask (Host, Origin, token), how much (64 KiB), then strict JSON.
+    app.add_middleware(StrictJsonBody)
     app.add_middleware(BodyLimitMiddleware, limit=BODY_LIMIT_BYTES)
+    app.add_middleware(AccessGuard, policy=config.access())
     for module in (commands, robot, scenes, telemetry):
         app.include_router(module.router)
     if config.fault_injection:

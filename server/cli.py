@@ -87,7 +87,7 @@ def cmd_console(args: argparse.Namespace) -> int:
             f"refusing to bind {args.host}: the console has no login of its own; keep it on 127.0.0.1 "
             "and reach it through an SSH tunnel (ssh -L 8080:127.0.0.1:8080 host)"
         )
-    run_console(args.robot, args.host, args.port, args.token or None)
+    run_console(args.robot, args.host, args.port, args.token or None, tuple(args.allow_origin))
     return 0
 
 
@@ -136,6 +136,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
         telemetry_hz=args.telemetry_hz,
         token=args.token or None,
         fault_injection=args.fault_injection,
+        allow_hosts=tuple(args.allow_host),
+        allow_origins=tuple(args.allow_origin),
     )
     serve(config)
     return 0
@@ -155,6 +157,8 @@ def cmd_proxy(args: argparse.Namespace) -> int:
             downlink=args.downlink,
             record=args.record,
             token=args.token or None,
+            allow_hosts=tuple(args.allow_host),
+            allow_origins=tuple(args.allow_origin),
         )
     )
     return 0
@@ -201,6 +205,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     console.add_argument("--port", type=int, default=8080)
     console.add_argument("--token", default=os.environ.get("PTWL_TOKEN"), help="the robot's access token")
+    _access_flags(console, hosts=False)
     console.set_defaults(func=cmd_console)
     serve = sub.add_parser("serve", help="run the robot server (REST + WebSocket telemetry)")
     serve.add_argument("--host", default="127.0.0.1", help="bind address (non-loopback needs --token)")
@@ -210,6 +215,7 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--telemetry-hz", type=float, default=50.0, help="state messages per second")
     serve.add_argument("--token", default=os.environ.get("PTWL_TOKEN"), help="access token (or PTWL_TOKEN)")
     serve.add_argument("--fault-injection", action="store_true", help=argparse.SUPPRESS)
+    _access_flags(serve)
     serve.set_defaults(func=cmd_serve)
     proxy = sub.add_parser("proxy", help="run the delay-line link between operator and robot")
     proxy.add_argument("--upstream", default="http://127.0.0.1:8000", help="the robot server")
@@ -219,11 +225,29 @@ def build_parser() -> argparse.ArgumentParser:
     proxy.add_argument("--uplink", type=float, help="[s] one-way delay, operator to robot")
     proxy.add_argument("--downlink", type=float, help="[s] one-way delay, robot to operator")
     proxy.add_argument("--record", type=Path, help="append a JSON line per message to this file")
-    proxy.add_argument("--token", default=os.environ.get("PTWL_TOKEN"), help="guards /_link (or PTWL_TOKEN)")
+    proxy.add_argument(
+        "--token", default=os.environ.get("PTWL_TOKEN"), help="needed on every route and socket (PTWL_TOKEN)"
+    )
+    _access_flags(proxy)
     proxy.set_defaults(func=cmd_proxy)
     sub.add_parser("scenes", help="list scenes").set_defaults(func=cmd_scenes)
     sub.add_parser("presets", help="print stiffness and dither presets").set_defaults(func=cmd_presets)
     return parser
+
+
+def _access_flags(parser: argparse.ArgumentParser, hosts: bool = True) -> None:
+    """Who else may reach a server: the Host and Origin checks' allow-lists (guard/access.py)."""
+    if hosts:
+        parser.add_argument(
+            "--allow-host", action="append", default=[], metavar="NAME", help="answer to this Host name too"
+        )
+    parser.add_argument(
+        "--allow-origin",
+        action="append",
+        default=[],
+        metavar="URL",
+        help="let browser pages from this origin in (e.g. https://ops.example:8443)",
+    )
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -2,11 +2,23 @@
 
 Shared by the event loop (submit, read, stop) and the simulation thread (start, finish), so every
 method takes one lock, briefly; nothing here blocks on I/O or physics.
+
+Every status change (queued, running, done, dropped) goes through `_changed`, which hands the
+record to the one listener that publishes its event and wakes its waiters; it is called under
+the lock, so events leave in the order the changes happened, whichever thread made them.
+
+Ids never repeat, across restarts too: the first is the boot time in microseconds, and each
+command takes the next integer. A later boot starts past every id an earlier one could have
+given out (that would take more than one command per microsecond); `instance` tells boots
+apart for a client that saw the robot restart.
 """
 
+import math
+import secrets
 import threading
 import time
 from collections import OrderedDict, deque
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -21,9 +33,18 @@ class QueueFullError(Exception):
         )
 
 
+def _finite(values: Sequence[float]) -> list[float] | None:
+    return [float(v) for v in values] if all(math.isfinite(v) for v in values) else None
+
+
+def _finite_or_none(value: float) -> float | None:
+    return value if math.isfinite(value) else None
+
+
 @dataclass
 class CommandRecord:
     id: int
+    instance: str
     params: BehaviorParams
     params_json: dict[str, Any]  # as validated, defaults filled in (dumped once)
     queued_at: float
@@ -35,9 +56,19 @@ class CommandRecord:
     detail: str = ""
 
     def to_model(self) -> CommandStatus:
+        """The API's view. A fault can leave NaN in the report: such fields become null, with
+        the reason in `detail`, so the record stays valid JSON for every reader."""
         r = self.report
+        final_wrench = _finite(r.final_wrench) if r else None
+        final_port = PoseModel(**r.final_port.as_dict()) if r else None
+        if final_port is not None and _finite([*final_port.position, *final_port.quaternion]) is None:
+            final_port = None
+        detail = self.detail
+        if r is not None and (final_wrench is None or final_port is None):
+            detail = (detail + "; " if detail else "") + "non-finite final wrench or pose reported as null"
         return CommandStatus(
             id=self.id,
+            instance=self.instance,
             type=self.params.type,
             status=self.status,
             exit=self.exit,
@@ -45,34 +76,44 @@ class CommandRecord:
             queued_at=self.queued_at,
             started_at=self.started_at,
             ended_at=self.ended_at,
-            duration=r.duration if r else None,
-            peak_force=r.peak_force if r else None,
-            peak_torque=r.peak_torque if r else None,
-            final_wrench=list(r.final_wrench) if r else None,
-            final_port=PoseModel(**r.final_port.as_dict()) if r else None,
-            detail=self.detail,
+            duration=_finite_or_none(r.duration) if r else None,
+            peak_force=_finite_or_none(r.peak_force) if r else None,
+            peak_torque=_finite_or_none(r.peak_torque) if r else None,
+            final_wrench=final_wrench,
+            final_port=final_port,
+            detail=detail,
         )
 
 
+Listener = Callable[[CommandRecord], None]
+
+
 class CommandBook:
-    def __init__(self, queue_max: int, history_max: int) -> None:
+    def __init__(self, queue_max: int, history_max: int, on_change: Listener | None = None) -> None:
         self._lock = threading.Lock()
         self._queue: deque[CommandRecord] = deque()
         self._records: OrderedDict[int, CommandRecord] = OrderedDict()
         self._queue_max = queue_max
         self._history_max = history_max
-        self._next_id = 1
+        self._on_change: Listener = on_change or (lambda record: None)
+        self.instance = secrets.token_hex(4)
+        self._next_id = time.time_ns() // 1000
         self.running: CommandRecord | None = None
+
+    def _changed(self, record: CommandRecord) -> None:
+        """(under the lock) The one place a status change is announced."""
+        self._on_change(record)
 
     def submit(self, params: BehaviorParams) -> CommandRecord:
         with self._lock:
             if len(self._queue) >= self._queue_max:
                 raise QueueFullError(self._queue_max)
-            record = CommandRecord(self._next_id, params, params.model_dump(), time.time())
+            record = CommandRecord(self._next_id, self.instance, params, params.model_dump(), time.time())
             self._next_id += 1
             self._queue.append(record)
             self._records[record.id] = record
             self._trim()
+            self._changed(record)
             return record
 
     def start_next(self) -> CommandRecord | None:
@@ -84,6 +125,7 @@ class CommandBook:
             record.status = "running"
             record.started_at = time.time()
             self.running = record
+            self._changed(record)
             return record
 
     def finish(self, report: BehaviorReport) -> CommandRecord | None:
@@ -98,6 +140,7 @@ class CommandBook:
             record.detail = report.detail
             record.ended_at = time.time()
             self.running = None
+            self._changed(record)
             return record
 
     def drop_queued(self, detail: str) -> list[CommandRecord]:
@@ -111,6 +154,7 @@ class CommandBook:
                 record.exit = "aborted"
                 record.detail = detail
                 record.ended_at = now
+                self._changed(record)
             return dropped
 
     def get(self, command_id: int) -> CommandStatus | None:

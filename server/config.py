@@ -1,29 +1,18 @@
 """Server settings (command line and environment)."""
 
-import ipaddress
-import socket
 from dataclasses import dataclass
+
+from guard.access import AccessConfigError, AccessPolicy, check_token_setting, is_loopback
+from guard.body_limit import BODY_LIMIT_BYTES
 
 DEFAULT_PORT = 8000
 QUEUE_MAX = 64  # queued commands; beyond it POST /api/commands answers 429
-BODY_LIMIT_BYTES = 64 * 1024
 HISTORY_MAX = 1000  # finished commands kept for GET /api/commands
 
 
-class ConfigError(ValueError):
-    """A setting that cannot work; the message says what to do."""
+ConfigError = AccessConfigError  # a setting that cannot work; the message says what to do
 
-
-def is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        try:
-            return all(ipaddress.ip_address(a[4][0]).is_loopback for a in socket.getaddrinfo(host, None))
-        except OSError:
-            return False
+__all__ = ["BODY_LIMIT_BYTES", "ConfigError", "ServerConfig", "is_loopback"]
 
 
 @dataclass(frozen=True)
@@ -35,12 +24,13 @@ class ServerConfig:
     telemetry_hz: float = 50.0
     token: str | None = None
     fault_injection: bool = False  # test hook: POST /api/_debug/fault
+    allow_hosts: tuple[str, ...] = ()  # Host names beyond the bind address (a DNS name, a proxy's)
+    allow_origins: tuple[str, ...] = ()  # browser origins beyond the server's own
+
+    def access(self) -> AccessPolicy:
+        return AccessPolicy(self.host, self.port, self.token, self.allow_hosts, self.allow_origins)
 
     def check(self) -> None:
-        if not is_loopback(self.host) and not self.token:
-            raise ConfigError(
-                f"refusing to bind {self.host}: a non-loopback address needs an access token "
-                "(--token or PTWL_TOKEN)"
-            )
+        check_token_setting(self.token, self.host)
         if not 1.0 <= self.telemetry_hz <= 500.0:
             raise ConfigError(f"--telemetry-hz must be in [1, 500], got {self.telemetry_hz:g}")

@@ -6,12 +6,23 @@ the library validate the same way.
 
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, Field
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
+from robot_sim.limits import MAX_SEED
 from robot_sim.params import DitherParams, PtwlParams, RweParams
+from robot_sim.scenes import SCENES
 
 Command = Annotated[PtwlParams | RweParams | DitherParams, Field(discriminator="type")]
 CommandState = Literal["queued", "running", "done"]
+
+
+def _known_scene(name: str) -> str:
+    if name not in SCENES:
+        raise ValueError(f"unknown scene {name!r}; valid: {', '.join(sorted(SCENES))}")
+    return name
+
+
+SceneName = Annotated[str, AfterValidator(_known_scene), Field(json_schema_extra={"enum": list(SCENES)})]
 
 
 class PoseModel(BaseModel):
@@ -19,8 +30,12 @@ class PoseModel(BaseModel):
     quaternion: list[float] = Field(description="unit quaternion w x y z, base frame")
 
 
+INSTANCE_DOC = "the server run that gave the id (changes on every restart)"
+
+
 class CommandAccepted(BaseModel):
-    id: int = Field(description="command id, for GET /api/commands/{id}")
+    id: int = Field(description="command id, for GET /api/commands/{id}; never reused, across restarts too")
+    instance: str = Field(description=INSTANCE_DOC)
     status: Literal["queued"] = Field("queued", description="always `queued`")
     warnings: list[str] = Field(
         default_factory=list,
@@ -32,7 +47,8 @@ class CommandAccepted(BaseModel):
 class CommandStatus(BaseModel):
     """One command's life; report fields are filled when it is done."""
 
-    id: int = Field(description="command id")
+    id: int = Field(description="command id; never reused, across restarts too")
+    instance: str = Field(description=INSTANCE_DOC)
     type: Literal["ptwl", "rwe", "dither"] = Field(description="the behavior")
     status: CommandState = Field(description="queued, running or done")
     exit: str | None = Field(
@@ -45,8 +61,10 @@ class CommandStatus(BaseModel):
     duration: float | None = Field(None, description="[s] sim time from start to exit")
     peak_force: float | None = Field(None, description="[N] max |f| on the port while running")
     peak_torque: float | None = Field(None, description="[N m] max |tau| about the port while running")
-    final_wrench: list[float] | None = Field(None, description="[N, N m] environment on port at exit")
-    final_port: PoseModel | None = Field(None, description="port pose at exit")
+    final_wrench: list[float] | None = Field(
+        None, description="[N, N m] environment on port at exit; null if not finite (a fault)"
+    )
+    final_port: PoseModel | None = Field(None, description="port pose at exit; null if not finite")
     detail: str = Field(
         "",
         description="why it ended, when there is more to say: stop, fault, or what held the port "
@@ -62,6 +80,7 @@ class RobotStateModel(BaseModel):
     joint_positions: list[float] = Field(description="[rad] joints 1-6")
     active_command: int | None = Field(description="id of the running command, or null")
     scene: str = Field(description="loaded scene")
+    instance: str = Field(description=INSTANCE_DOC)
     manipulability: float = Field(description="sqrt(det(J J^T)); the DLS damps below 0.012")
     faults: int = Field(description="simulation faults since start (each reset the scene)")
     limited: str | None = Field(
@@ -79,11 +98,17 @@ class HealthModel(BaseModel):
     last_fault: str | None = Field(description="what the last fault was, or null")
     real_time_lag: float = Field(description="[s] wall time minus sim time; ~0 when keeping up")
     queued: int = Field(description="commands waiting to run")
+    instance: str = Field(description=INSTANCE_DOC)
+    long_polls: int = Field(description="GET /api/commands/{id}?wait= requests open now")
 
 
 class SceneRequest(BaseModel):
-    name: str = Field(description="a scene from GET /api/scenes")
-    seed: int | None = Field(None, description="jitters the fixture; null for the nominal layout")
+    model_config = ConfigDict(extra="forbid", strict=True)
+
+    name: SceneName = Field(description="a scene from GET /api/scenes")
+    seed: Annotated[int, Field(ge=0, le=MAX_SEED)] | None = Field(
+        None, description=f"[0, {MAX_SEED}] jitters the fixture; null for the nominal layout"
+    )
 
 
 class SceneModel(BaseModel):

@@ -39,14 +39,12 @@ class SimRunner:
         telemetry_hz: float,
         book: CommandBook,
         publish: Callable[[str], object],
-        on_command_done: Callable[[int], object],
     ) -> None:
         get_scene(scene)  # fail early, listing the scenes
         self.sim = Simulation(scene, seed)
         self._moving = moving_bodies(self.sim.model)
         self.book = book
         self._publish = publish
-        self._on_command_done = on_command_done
         self._period = 1.0 / telemetry_hz
         self._batch = min(BATCH_S, self._period)
         self._stop = threading.Event()
@@ -77,8 +75,6 @@ class SimRunner:
     def stop_all(self) -> dict[str, Any]:
         """(simulation thread) Abort the running command, drop the queue, hold the robot."""
         dropped = self.book.drop_queued("dropped by stop")
-        for record in dropped:
-            self._emit_command(record)
         running = self.book.running
         report = self.sim.hold_position()  # ends the running behavior `aborted`, "stopped"
         if report is not None:
@@ -129,7 +125,6 @@ class SimRunner:
         if record is None:
             return
         self.sim.start(behavior_for(record.params))
-        self._emit_command(record)
 
     def _advance(self) -> None:
         faults_before = self.sim.fault_count
@@ -140,10 +135,7 @@ class SimRunner:
             self._next_telemetry = 0.0
 
     def _command_done(self, report: BehaviorReport) -> None:
-        record = self.book.finish(report)
-        if record is not None:
-            self._emit_command(record)
-            self._on_command_done(record.id)
+        self.book.finish(report)  # the book announces it
 
     # ----------------------------------------------------------------- telemetry
     def _state(self) -> dict[str, Any]:
@@ -157,6 +149,7 @@ class SimRunner:
             "joint_positions": list(state.joint_positions),
             "active_command": running.id if running else None,
             "scene": state.scene,
+            "instance": self.book.instance,
             "manipulability": state.manipulability,
             "faults": self.sim.fault_count,
             "limited": state.limited,
@@ -170,9 +163,6 @@ class SimRunner:
         self._next_telemetry += self._period
         if self._next_telemetry < self.sim.time:  # fell behind (dropped backlog): no burst
             self._next_telemetry = self.sim.time + self._period
-
-    def _emit_command(self, record: CommandRecord) -> None:
-        self._publish(command_event(record))
 
 
 def command_event(record: CommandRecord) -> str:

@@ -2,6 +2,7 @@
 
 import signal
 import socket
+from dataclasses import replace
 
 import uvicorn
 
@@ -30,7 +31,8 @@ def serve(config: ServerConfig) -> None:
         f"{'token required' if config.token else 'no token: loopback only'})",
         flush=True,
     )
-    server = uvicorn.Server(uvicorn.Config(create_app(config), log_level="warning", lifespan="on"))
+    app = create_app(replace(config, port=port))  # the Origin check needs the port really bound
+    server = uvicorn.Server(uvicorn.Config(app, log_level="warning", lifespan="on"))
     # uvicorn shuts down gracefully on SIGINT/SIGTERM, then re-raises the signal to the handler
     # that was there before it; make that one a no-op so a clean stop exits 0.
     for sig in (signal.SIGINT, signal.SIGTERM):

@@ -69,13 +69,16 @@ def test_bad_profile_updates_are_refused_and_change_nothing(
     assert httpx.get(proxy.url + "/_link/profile").json() == before
 
 
+LINK_TOKEN = "link-token-0123456789"
+
+
 def test_control_api_token(server: ServerProcess) -> None:
-    with running_proxy(server.url, "--token", "tok") as guarded:
+    with running_proxy(server.url, "--token", LINK_TOKEN) as guarded:
         assert httpx.get(guarded.url + "/_link/stats").status_code == 401
         assert (
             httpx.get(guarded.url + "/_link/stats", headers={"Authorization": "Bearer no"}).status_code == 403
         )
-        ok = httpx.get(guarded.url + "/_link/stats", headers={"Authorization": "Bearer tok"})
+        ok = httpx.get(guarded.url + "/_link/stats", headers={"Authorization": f"Bearer {LINK_TOKEN}"})
         assert ok.status_code == 200 and {"uplink", "downlink"} <= set(ok.json())
 
 

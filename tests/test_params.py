@@ -36,10 +36,18 @@ def test_absurd_displacements() -> None:
     assert "magnitude must be <= 3.14159 rad" in error_text(PtwlParams, rotation=[0.0, 0.0, 4.0])
 
 
-@pytest.mark.parametrize("field", ["force_threshold", "torque_threshold", "position_tolerance"])
-def test_thresholds_must_be_positive(field: str) -> None:
-    text = error_text(PtwlParams, **{field: 0.0})
-    assert field in text and "(0, inf)" in text
+@pytest.mark.parametrize(
+    ("field", "allowed"),
+    [
+        ("force_threshold", "(0, 500] N"),
+        ("torque_threshold", "(0, 50] N m"),
+        ("position_tolerance", "(0, inf)"),
+    ],
+)
+def test_thresholds_must_be_positive_and_capped(field: str, allowed: str) -> None:
+    for bad in (0.0, 1e308) if "inf" not in allowed else (0.0,):
+        text = error_text(PtwlParams, **{field: bad})
+        assert field in text and allowed in text
 
 
 def test_watchdog_shorter_than_duration() -> None:

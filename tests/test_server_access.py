@@ -12,7 +12,7 @@ import websockets
 from server.config import ConfigError, ServerConfig, is_loopback
 from server.launcher import ServerProcess, running_server
 
-TOKEN = "s3cret-token"
+TOKEN = "s3cret-token-0123456789"
 
 
 @pytest.fixture(scope="module")
@@ -63,8 +63,11 @@ def test_token_required_401_missing_403_wrong(
     assert right.status_code in (200, 202)
 
 
-def test_health_stays_open(guarded: ServerProcess) -> None:
-    assert httpx.get(guarded.url + "/api/health").status_code == 200
+@pytest.mark.parametrize("path", ["/api/health", "/docs", "/openapi.json", "/redoc"])
+def test_with_a_token_nothing_is_open_not_even_health_or_docs(guarded: ServerProcess, path: str) -> None:
+    assert httpx.get(guarded.url + path).status_code == 401
+    right = httpx.get(guarded.url + path, headers={"Authorization": f"Bearer {TOKEN}"})
+    assert right.status_code == 200
 
 
 def test_websocket_needs_the_token_too(guarded: ServerProcess) -> None:

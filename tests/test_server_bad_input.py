@@ -34,11 +34,37 @@ BAD_COMMANDS = {
         422,
         ["watchdog (2 s) must be >= duration (5 s)"],
     ),
-    "force_threshold_zero": ('{"type": "ptwl", "force_threshold": 0}', 422, ["force_threshold", "(0, inf)"]),
+    "force_threshold_zero": (
+        '{"type": "ptwl", "force_threshold": 0}',
+        422,
+        ["force_threshold", "(0, 500] N"],
+    ),
     "torque_threshold_negative": (
         '{"type": "dither", "torque_threshold": -1}',
         422,
-        ["torque_threshold", "(0, inf)"],
+        ["torque_threshold", "(0, 50] N m"],
+    ),
+    # Issue 9: what used to get through.
+    "force_threshold_1e308": (
+        '{"type": "ptwl", "force_threshold": 1e308}',
+        422,
+        ["force_threshold", "(0, 500] N", "got 1e+308"],
+    ),
+    "duration_true_is_not_1_s": ('{"type": "ptwl", "duration": true}', 422, ["duration", "valid number"]),
+    "duration_string_is_not_a_number": (
+        '{"type": "rwe", "duration": "5"}',
+        422,
+        ["duration", "valid number"],
+    ),
+    "duplicate_key": (
+        '{"type": "ptwl", "force_threshold": 20, "force_threshold": 400}',
+        422,
+        ["duplicate key 'force_threshold'"],
+    ),
+    "nesting_20k_deep": (
+        '{"type": "ptwl", "x": ' + "[" * 20_000 + "]" * 20_000 + "}",
+        422,
+        ["nested deeper"],
     ),
     "on_breach_unknown": ('{"type": "ptwl", "on_breach": "stop"}', 422, ["on_breach", "'limit' or 'freeze'"]),
     "dither_on_breach_unknown": (
@@ -146,8 +172,42 @@ def test_unknown_scene_lists_the_valid_ones(
     before = robot.health().sim_time
     response = httpx.post(server.url + "/api/scene", json={"name": "moon"})
     assert response.status_code == 422
-    assert response.json()["detail"] == "unknown scene 'moon'; valid: free_space, sleeve_on_peg, surface"
+    assert (
+        response.json()["detail"] == "name: unknown scene 'moon'; valid: free_space, sleeve_on_peg, surface"
+    )
     assert_nothing_lost(robot, running, queued, before)
+
+
+@pytest.mark.parametrize(
+    ("body", "fragments"),
+    [
+        ({"name": "surface", "seed": -1}, ["seed", "greater than or equal to 0"]),
+        ({"name": "surface", "seed": 2**40}, ["seed", "less than or equal to 4294967295"]),
+        ({"name": "surface", "seed": "7"}, ["seed", "valid integer"]),
+        ({"name": "surface", "sede": 7}, ["sede", "Extra inputs"]),
+    ],
+)
+def test_bad_scene_reset_is_refused_before_it_stops_anything(
+    busy: tuple[RobotClient, int, int], server: ServerProcess, body: dict[str, object], fragments: list[str]
+) -> None:
+    """A reset stops everything, so it must be judged whole first: seed -1 used to abort the
+    running command and drop the queue, then answer 500."""
+    robot, running, queued = busy
+    before = robot.health().sim_time
+    response = httpx.post(server.url + "/api/scene", json=body)
+    assert response.status_code == 422, response.text
+    for fragment in fragments:
+        assert fragment in response.json()["detail"]
+    assert_nothing_lost(robot, running, queued, before)
+
+
+def test_huge_dither_axis_is_a_direction_not_a_fault(robot: RobotClient) -> None:
+    """1.3e154 squared overflows a naive norm; the axis is a direction, normalized once."""
+    robot.stop()
+    done = robot.run("dither", axis=[1.3e154, 0.0, 1.3e154], travel=0.002, duration=0.5, timeout=15)
+    assert done.exit == "goal_reached", done
+    assert done.params["axis"] == pytest.approx([2**-0.5, 0.0, 2**-0.5])
+    assert robot.health().faults == 0
 
 
 def test_bad_long_poll_wait(busy: tuple[RobotClient, int, int], server: ServerProcess) -> None:
@@ -162,7 +222,7 @@ def test_queue_is_bounded_with_429(robot: RobotClient, server: ServerProcess) ->
     running = robot.ptwl(translation=[0.0, 0.0, -0.05], duration=60.0).id
     ids = [robot.ptwl(translation=[0.0, 0.0, -0.01], duration=1.0).id for _ in range(64)]
     response = httpx.post(server.url + "/api/commands", json={"type": "rwe"})
-    assert response.status_code == 429
+    assert response.status_code == 429 and response.headers["retry-after"] == "1"
     assert "queue is full (64 queued)" in response.json()["detail"]
     assert robot.health().queued == 64 and robot.get(running).status == "running"
     result = robot.stop()

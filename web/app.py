@@ -17,6 +17,7 @@ import viser
 from server.client import RobotClient, RobotError
 from web.defaults import load_defaults
 from web.feed import TelemetryFeed
+from web.front_door import FrontDoor
 from web.history import CommandHistory, CommandView
 from web.panel import Panel
 from web.robot_view import RobotView
@@ -28,12 +29,23 @@ PLOT_EVERY = 5  # telemetry messages per plot refresh (10 Hz at 50 Hz telemetry)
 
 
 class ConsoleApp:
-    def __init__(self, robot_url: str, host: str = "127.0.0.1", port: int = 8080, token: str | None = None):
+    def __init__(
+        self,
+        robot_url: str,
+        host: str = "127.0.0.1",
+        port: int = 8080,
+        token: str | None = None,
+        allow_origins: tuple[str, ...] = (),
+    ):
         self.robot_url = robot_url.rstrip("/")
         self.token = token
         self.client = RobotClient(self.robot_url, token=token, timeout=HTTP_TIMEOUT_S)
         self.defaults = load_defaults()
-        self.server = viser.ViserServer(host=host, port=port, label="ptwl console", verbose=False)
+        # viser checks no Origin: it listens on an ephemeral loopback port behind the front door.
+        self.server = viser.ViserServer(host="127.0.0.1", port=0, label="ptwl console", verbose=False)
+        self.front_door = FrontDoor(host, port, self.server.get_port(), allow_origins)
+        self._host = host
+        self._front_port = self.front_door.start()
         # Looking at the workspace in front of the arm, from front-left and above.
         self.server.initial_camera.position = (1.05, -0.75, 0.75)
         self.server.initial_camera.look_at = (0.33, 0.0, 0.28)
@@ -56,7 +68,8 @@ class ConsoleApp:
 
     @property
     def url(self) -> str:
-        return f"http://{self.server.get_host()}:{self.server.get_port()}"
+        shown = f"[{self._host}]" if ":" in self._host else self._host
+        return f"http://{shown}:{self._front_port}"
 
     # ---------------------------------------------------------------- start
     def connect(self, timeout: float = 120.0) -> None:
@@ -292,6 +305,7 @@ class ConsoleApp:
         self._closed = True
         if self.feed is not None:
             self.feed.stop()
+        self.front_door.close()
         self.server.stop()
         self.client.close()
 

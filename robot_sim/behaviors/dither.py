@@ -58,8 +58,7 @@ class Dither(Behavior):
         self._p_world_port_start[:] = ctl.p_world_port
         self._p_world_from[:] = ctl.p_world_attractor
         self._q_world_from[:] = ctl.q_world_attractor
-        axis_tool = np.asarray(self.params.axis, dtype=float)
-        axis_tool /= np.linalg.norm(axis_tool)
+        axis_tool = np.asarray(self.params.axis, dtype=float)  # unit length (params.py)
         self.axis_world[:] = rotation_matrix(ctl.q_world_port) @ axis_tool
         self._e1[:], self._e2[:] = perpendicular_basis(self.axis_world)
 

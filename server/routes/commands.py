@@ -1,19 +1,17 @@
 """Commands: queue a behavior, follow it, stop everything."""
 
-import asyncio
-import contextlib
 from typing import Annotated
 
 from fastapi import APIRouter, Body, HTTPException, Query, Request, status
 
+from guard.disconnect import client_gone
 from robot_sim.impact import impact_warnings
 from robot_sim.params import PtwlParams
-from server.auth import Authorized
 from server.models import Command, CommandAccepted, CommandStatus, StopResult
 from server.routes.deps import Book, DoneWaiters, Runner, on_sim_thread
-from server.runner import command_event
 
 router = APIRouter(prefix="/api", tags=["commands"])
+
 
 MAX_WAIT_S = 60.0
 
@@ -21,7 +19,6 @@ MAX_WAIT_S = 60.0
 @router.post("/commands", status_code=status.HTTP_202_ACCEPTED, response_model=CommandAccepted)
 async def submit_command(
     request: Request,
-    _: Authorized,
     book: Book,
     runner: Runner,
     params: Annotated[Command, Body(discriminator="type")],
@@ -31,17 +28,16 @@ async def submit_command(
     `warnings` says what is accepted but worth knowing (an approach that will overshoot the
     force threshold on impact)."""
     record = book.submit(params)
-    request.app.state.broadcaster.publish(command_event(record))
     warnings: list[str] = []
     if isinstance(params, PtwlParams):
         q_world_port = runner.latest_state["port"]["quaternion"]
         warnings = impact_warnings(params, runner.sim.controller.gains, q_world_port)
-    return CommandAccepted(id=record.id, warnings=warnings)
+    return CommandAccepted(id=record.id, instance=record.instance, warnings=warnings)
 
 
 @router.get("/commands", response_model=list[CommandStatus])
 async def list_commands(
-    _: Authorized, book: Book, limit: Annotated[int, Query(ge=1, le=1000, description="how many")] = 100
+    book: Book, limit: Annotated[int, Query(ge=1, le=1000, description="how many")] = 100
 ) -> list[CommandStatus]:
     """Recent commands, newest last."""
     return book.recent(limit)
@@ -49,8 +45,8 @@ async def list_commands(
 
 @router.get("/commands/{command_id}", response_model=CommandStatus)
 async def get_command(
+    request: Request,
     command_id: int,
-    _: Authorized,
     book: Book,
     waiters: DoneWaiters,
     wait: Annotated[float, Query(ge=0.0, le=MAX_WAIT_S, description="[s] hold until done, up to this")] = 0.0,
@@ -60,16 +56,13 @@ async def get_command(
     if found is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"no command {command_id}")
     if wait > 0.0 and found.status != "done":
-        event = waiters.event_for(command_id)
-        if not book.is_done(command_id):  # it may have finished since the first look
-            with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(event.wait(), wait)
+        await waiters.until_done(command_id, wait, lambda: book.is_done(command_id), client_gone(request))
         found = book.get(command_id)
-        assert found is not None
+        assert found is not None  # a record is kept while it is not done, and we just saw it
     return found
 
 
 @router.post("/stop", response_model=StopResult)
-async def stop(_: Authorized, runner: Runner) -> StopResult:
+async def stop(runner: Runner) -> StopResult:
     """Abort the running command, drop the queue, hold the robot where it is."""
     return StopResult(**await on_sim_thread(runner, runner.stop_all))

@@ -2,14 +2,13 @@
 
 from fastapi import APIRouter
 
-from server.auth import Authorized
 from server.routes.deps import Runner, on_sim_thread
 
 router = APIRouter(prefix="/api/_debug", tags=["debug"], include_in_schema=False)
 
 
 @router.post("/fault")
-async def inject_fault(_: Authorized, runner: Runner) -> dict[str, str]:
+async def inject_fault(runner: Runner) -> dict[str, str]:
     """Poison the physics (NaN velocity) so the next step faults, as a diverging simulation would."""
     await on_sim_thread(runner, runner.inject_fault)
     return {"detail": "NaN injected into qvel"}

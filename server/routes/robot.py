@@ -5,16 +5,16 @@ from typing import Any
 from fastapi import APIRouter
 
 from robot_sim.presets import default_presets
-from server.auth import Authorized
 from server.models import GainsPreset, HealthModel, RobotStateModel, TaskModel
-from server.routes.deps import Book, Runner, on_sim_thread
+from server.routes.deps import Book, DoneWaiters, Runner, on_sim_thread
 
 router = APIRouter(prefix="/api", tags=["robot"])
 
 
 @router.get("/health", response_model=HealthModel)
-async def health(runner: Runner, book: Book) -> HealthModel:
-    """Liveness; open without a token. `faults` counts simulation faults (each reset the scene)."""
+async def health(runner: Runner, book: Book, waiters: DoneWaiters) -> HealthModel:
+    """Liveness. `faults` counts simulation faults (each reset the scene); `instance` changes
+    when the server restarts."""
     state = runner.latest_state
     return HealthModel(
         status="ok",
@@ -23,17 +23,19 @@ async def health(runner: Runner, book: Book) -> HealthModel:
         last_fault=runner.last_fault,
         real_time_lag=runner.real_time_lag(),
         queued=book.queued_count(),
+        instance=book.instance,
+        long_polls=len(waiters),
     )
 
 
 @router.get("/state", response_model=RobotStateModel)
-async def state(_: Authorized, runner: Runner) -> dict[str, Any]:
+async def state(runner: Runner) -> dict[str, Any]:
     """The latest telemetry state (at most one telemetry period old; see `sim_time`)."""
     return runner.latest_state
 
 
 @router.get("/task", response_model=TaskModel)
-async def task(_: Authorized, runner: Runner) -> TaskModel:
+async def task(runner: Runner) -> TaskModel:
     """The scene's success predicate, evaluated now."""
 
     def evaluate() -> TaskModel:
@@ -44,7 +46,7 @@ async def task(_: Authorized, runner: Runner) -> TaskModel:
 
 
 @router.get("/presets")
-async def presets(_: Authorized) -> dict[str, Any]:
+async def presets() -> dict[str, Any]:
     """Stiffness/damping presets by name, `{name: {stiffness, damping}}`, plus the dither presets
     under `dither`."""
     loaded = default_presets()

@@ -1,0 +1,111 @@
+"""The console's front door: the access policy in front of viser, which checks no Origin.
+
+viser's server (websockets' `serve`) accepts a WebSocket from any page, so a page on another
+origin could open it and press Send. Browsers connect here instead; each connection's request
+head is judged by guard/ (Host, Origin) before a byte reaches viser, which listens on an
+ephemeral loopback port. viser answers one request per connection (static files or the
+WebSocket upgrade), so judging the first head judges the whole connection.
+"""
+
+import asyncio
+import contextlib
+import json
+import threading
+from urllib.parse import urlsplit
+
+from guard.access import AccessPolicy
+from guard.asgi import denial
+
+MAX_HEAD_BYTES = 64 * 1024
+REASONS = {400: "Bad Request", 403: "Forbidden", 431: "Request Header Fields Too Large", 503: "Unavailable"}
+
+
+def _parse_head(head: bytes) -> tuple[str, dict[str, str]]:
+    lines = head.decode("latin-1").split("\r\n")
+    parts = lines[0].split(" ")
+    target = parts[1] if len(parts) > 1 else "/"
+    headers: dict[str, str] = {}
+    for line in lines[1:]:
+        name, sep, value = line.partition(":")
+        if sep:
+            headers[name.strip().lower()] = value.strip()
+    return target, headers
+
+
+def _refusal(status: int, detail: str) -> bytes:
+    body = json.dumps({"detail": detail}).encode()
+    head = (
+        f"HTTP/1.1 {status} {REASONS.get(status, 'Refused')}\r\nContent-Type: application/json\r\n"
+        f"Content-Length: {len(body)}\r\nConnection: close\r\n\r\n"
+    )
+    return head.encode() + body
+
+
+async def _pipe(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+    with contextlib.suppress(ConnectionError, OSError):
+        while chunk := await reader.read(65536):
+            writer.write(chunk)
+            await writer.drain()
+    with contextlib.suppress(ConnectionError, OSError, RuntimeError):
+        writer.close()
+
+
+class FrontDoor:
+    """Listen on (host, port); pass allowed connections to viser at 127.0.0.1:`inner_port`."""
+
+    def __init__(self, host: str, port: int, inner_port: int, allow_origins: tuple[str, ...] = ()) -> None:
+        self._host, self._port, self._inner_port = host, port, inner_port
+        self._allow_origins = allow_origins
+        self.policy: AccessPolicy | None = None
+        self._loop = asyncio.new_event_loop()
+        self._server: asyncio.Server | None = None
+        self._thread = threading.Thread(target=self._loop.run_forever, name="ptwl-front-door", daemon=True)
+
+    def start(self) -> int:
+        """Bind and serve; the port actually bound."""
+        self._thread.start()
+        self._server = asyncio.run_coroutine_threadsafe(self._bind(), self._loop).result(timeout=10.0)
+        port = int(self._server.sockets[0].getsockname()[1])
+        self.policy = AccessPolicy(self._host, port, None, (), self._allow_origins)
+        return port
+
+    async def _bind(self) -> asyncio.Server:
+        return await asyncio.start_server(self._handle, self._host, self._port, reuse_address=True)
+
+    def close(self) -> None:
+        if self._server is not None:
+            self._loop.call_soon_threadsafe(self._server.close)
+        self._loop.call_soon_threadsafe(self._loop.stop)
+
+    async def _handle(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        try:
+            head = await reader.readuntil(b"\r\n\r\n")
+        except asyncio.LimitOverrunError:
+            writer.write(_refusal(431, f"request head over {MAX_HEAD_BYTES} bytes"))
+            await _close(writer)
+            return
+        except (asyncio.IncompleteReadError, ConnectionError):
+            await _close(writer)
+            return
+        target, headers = _parse_head(head)
+        assert self.policy is not None
+        websocket = headers.get("upgrade", "").lower() == "websocket"
+        refused = denial(self.policy, headers, urlsplit(target).query, websocket)
+        if refused is not None:
+            writer.write(_refusal(refused[0], refused[1]))
+            await _close(writer)
+            return
+        try:
+            inner_reader, inner_writer = await asyncio.open_connection("127.0.0.1", self._inner_port)
+        except OSError:
+            writer.write(_refusal(503, "console not ready"))
+            await _close(writer)
+            return
+        inner_writer.write(head)
+        await asyncio.gather(_pipe(reader, inner_writer), _pipe(inner_reader, writer))
+
+
+async def _close(writer: asyncio.StreamWriter) -> None:
+    with contextlib.suppress(ConnectionError, OSError):
+        await writer.drain()
+        writer.close()
