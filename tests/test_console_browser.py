@@ -237,10 +237,18 @@ def test_console_says_when_the_robot_restarts_and_reconnects(browser) -> None:  
         running_console(link.url) as console,
     ):
         page = open_console(browser, console.url)
+        set_fields(page, "Watchdog [s]", 40.0)
+        set_fields(page, "Duration [s]", 30.0)
+        previous = send(page, "Send cmd")
+        wait_status(page, "running", timeout_s=15.0, after=previous)
+        cut_off = command_id(page)
         robot.stop()
         wait_text(page, "telemetry lost", 15.0)
         with running_server("--scene", "free_space", port=server_port):
-            wait_text(page, "robot state #", 20.0)
+            wait_text(page, "robot restarted", 20.0)
+            # The cut-off command is lost, never shown as a later command's result.
+            assert command_id(page) == cut_off and command_status(page) == "lost"
+            set_fields(page, "Duration [s]", 1.0)
             before = send(page, "Send cmd")
             wait_status(page, "goal_reached", after=before)
         page.close()

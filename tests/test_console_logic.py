@@ -80,6 +80,29 @@ def test_history_keeps_order_when_an_event_beats_its_202() -> None:
     assert counts["peak_force"] == 21.5
 
 
+def test_a_robot_restart_shows_its_unfinished_commands_lost_not_done() -> None:
+    history = CommandHistory()
+    assert history.robot_instance("aaaa0001") is None  # the first run seen
+    running = history.sent("rwe")
+    history.accepted(running, 1795000000000001)
+    history.event({"id": 1795000000000001, "behavior": "rwe", "status": "running"})
+    queued, _ = history.event({"id": 1795000000000002, "behavior": "ptwl", "status": "queued"})
+    finished, _ = history.event(
+        {"id": 1795000000000000, "behavior": "ptwl", "status": "done", "exit": "timeout"}
+    )
+    pending = history.sent("dither")  # its POST has not been answered: it reaches the new run
+    assert history.robot_instance("aaaa0001") is None  # same run: nothing happens
+    lost = history.robot_instance("bbbb0002")
+    assert lost == [running, queued] and all(v.status == "lost" for v in lost)
+    assert "restarted" in running.detail and finished not in history.recent()
+    assert history.recent() == [running, queued, pending]
+    # The new run's first command ends; the lost ones stay lost, even at the same id.
+    view, ended = history.event(
+        {"id": 1795000000000001, "behavior": "ptwl", "status": "done", "exit": "goal_reached"}
+    )
+    assert view is not running and ended and running.status == "lost"
+
+
 @pytest.fixture(scope="module")
 def console(server: ServerProcess) -> Iterator[ConsoleApp]:
     with running_proxy(server.url) as link:

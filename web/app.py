@@ -56,6 +56,7 @@ class ConsoleApp:
         self._last_arrival: float | None = None
         self._last_sent_at: float | None = None
         self._link_text = "connecting"
+        self._restart_note = ""
         self._commanded: CommandView | None = None
         self._syncing_gizmo = False
         self._plot: deque[tuple[float, ...]] = deque()
@@ -188,6 +189,7 @@ class ConsoleApp:
             self._last_seq = state["seq"]
             self._last_arrival = arrived
             self._last_sent_at = state["sent_at"]
+        self._check_instance(state["instance"])
         if state["scene"] != self.scene_name:
             self.scene_name = state["scene"]
             threading.Thread(target=self._reload_geometry, daemon=True).start()
@@ -195,7 +197,7 @@ class ConsoleApp:
         x, y, z = (1000.0 * v for v in state["port"]["position"])
         text = (
             f"robot state #{state['seq']} is <b>{age:.2f} s old</b> · port ({x:.1f}, {y:.1f}, {z:.1f}) mm"
-            f" · {self._link_text}"
+            f" · {self._link_text}{self._restart_note}"
         )
         with self.server.atomic():
             self.view.update(state)
@@ -214,6 +216,7 @@ class ConsoleApp:
         assert self.panel is not None
         if self._closed:
             return
+        self._check_instance(message["instance"])
         view, ended = self.history.event(message)
         if view is None:
             return
@@ -226,6 +229,20 @@ class ConsoleApp:
             self._notify(
                 f"{view.behavior.upper()} {view.label}: {view.exit}", peak, _notification_color(view.exit)
             )
+
+    def _check_instance(self, instance: str) -> None:
+        """The robot restarted if its instance changed: say so, and show its cut-off commands lost."""
+        assert self.panel is not None
+        lost = self.history.robot_instance(instance)
+        if lost is None:
+            return
+        self._restart_note = f" · <b>robot restarted</b> at {time.strftime('%H:%M:%S')}"
+        if any(v is self._commanded for v in lost) and self.view is not None:
+            self.view.show_commanded(None)
+        labels = ", ".join(f"{v.behavior.upper()} {v.label}" for v in lost) or "none"
+        self._notify("Robot restarted", f"commands it had not finished are lost: {labels}", "red")
+        self.panel.show_command(self.history.latest())
+        self._show_history()
 
     def _on_link(self, text: str) -> None:
         self._link_text = text

@@ -3,6 +3,10 @@
 A command sent from this console is `sent` at once (the operator sees it immediately), then
 `queued` when the robot's 202 comes back over the link, `running` and `done` from telemetry.
 Commands from other consoles or scripts appear from their telemetry events alone.
+
+Ids are the robot's and never repeat, but a restarted robot has forgotten the commands it had
+queued or running: when the robot's `instance` changes those are shown `lost`, never as the
+result of a later command, and the history starts again from them.
 """
 
 import threading
@@ -19,6 +23,7 @@ EXIT_COLORS = {
     "aborted": "#868e96",
     "fault": "#e03131",
     "refused": "#e03131",
+    "lost": "#e03131",
 }
 PHASE_COLORS = {"sent": "#1971c2", "queued": "#1971c2", "running": "#7048e8"}
 
@@ -57,6 +62,7 @@ class CommandHistory:
         self._by_id: dict[int, CommandView] = {}
         self._early: dict[int, dict[str, Any]] = {}  # events that beat their 202 back
         self._next_local = 1
+        self._instance: str | None = None
 
     def sent(self, behavior: str, target: Any = None) -> CommandView:
         with self._lock:
@@ -100,6 +106,23 @@ class CommandHistory:
             view.duration = message.get("duration")
             view.detail = message.get("detail") or ""
             return view, view.phase == "done" and not was_done
+
+    def robot_instance(self, instance: str) -> list[CommandView] | None:
+        """Note which run of the robot is reporting; if it changed, the commands the old run had
+        queued or running are lost (returned, and kept as the start of a fresh history)."""
+        with self._lock:
+            previous, self._instance = self._instance, instance
+            if previous is None or previous == instance:
+                return None
+            lost = [v for v in self._views if v.phase in ("queued", "running")]
+            for view in lost:
+                view.phase, view.exit = "done", "lost"
+                view.detail = f"the robot restarted (run {previous} -> {instance}) before it ended"
+            waiting = [v for v in self._views if v.phase == "sent"]  # their POST reaches the new run
+            self._views = lost + waiting
+            self._by_id = {}
+            self._early = {}
+            return lost
 
     def recent(self, n: int = 8) -> list[CommandView]:
         with self._lock:

@@ -1,0 +1,178 @@
+"""The link proxy as an attacker and a careless user would try it (issue 9, holes 2, 6 and 7)."""
+
+import asyncio
+import json
+import os
+import signal
+import threading
+import time
+from collections.abc import Iterator
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from pathlib import Path
+from typing import ClassVar
+
+import httpx
+import pytest
+import websockets
+
+from server.launcher import ServerProcess, running_proxy, running_server
+
+TOKEN = "robot-and-link-token-0123"
+AUTH = {"Authorization": f"Bearer {TOKEN}"}
+
+
+@pytest.fixture(scope="module")
+def guarded() -> Iterator[tuple[ServerProcess, ServerProcess]]:
+    """Robot and link both with the token, as off loopback."""
+    with (
+        running_server("--scene", "free_space", "--token", TOKEN) as robot,
+        running_proxy(robot.url, "--token", TOKEN) as link,
+    ):
+        yield robot, link
+
+
+@pytest.fixture(scope="module")
+def open_link() -> Iterator[ServerProcess]:
+    with running_server("--scene", "free_space") as robot, running_proxy(robot.url) as link:
+        yield link
+
+
+def ws_status(url: str) -> int:
+    async def attempt() -> int:
+        try:
+            async with websockets.connect(url, open_timeout=10) as ws:
+                await asyncio.wait_for(ws.recv(), 10.0)
+                return 101
+        except websockets.InvalidStatus as err:
+            return err.response.status_code
+
+    return asyncio.run(attempt())
+
+
+@pytest.mark.parametrize(
+    ("method", "path", "body"),
+    [
+        ("GET", "/api/state", None),
+        ("GET", "/api/health", None),
+        ("POST", "/api/commands", {"type": "rwe"}),
+        ("POST", "/api/stop", None),
+        ("GET", "/openapi.json", None),
+        ("GET", "/_link/stats", None),
+        ("PUT", "/_link/profile", {"uplink": 0.0}),
+    ],
+)
+def test_link_with_a_token_guards_every_forwarded_route(
+    guarded: tuple[ServerProcess, ServerProcess], method: str, path: str, body: object
+) -> None:
+    url = guarded[1].url + path
+    missing = httpx.request(method, url, json=body)
+    assert missing.status_code == 401 and missing.headers["www-authenticate"] == "Bearer"
+    assert httpx.request(method, url, json=body, headers={"Authorization": "Bearer x" * 9}).status_code == 403
+    assert httpx.request(method, url, json=body, headers=AUTH).status_code in (200, 202)
+
+
+def test_link_with_a_token_guards_the_telemetry_socket(guarded: tuple[ServerProcess, ServerProcess]) -> None:
+    url = guarded[1].url.replace("http://", "ws://") + "/api/telemetry"
+    assert ws_status(url) == 401
+    assert ws_status(url + "?token=wrong-token-but-long-enough") == 403
+    assert ws_status(url + f"?token={TOKEN}") == 101
+
+
+class _Recorder(BaseHTTPRequestHandler):
+    hits: ClassVar[list[str]] = []
+
+    def do_GET(self) -> None:
+        _Recorder.hits.append(self.path)
+        body = b"internal secret"
+        self.send_response(200)
+        self.send_header("Content-Length", str(len(body)))
+        self.end_headers()
+        self.wfile.write(body)
+
+    def log_message(self, *args: object) -> None:
+        pass
+
+
+def test_a_double_slash_path_cannot_reach_another_host(open_link: ServerProcess) -> None:
+    """`//host:port/x` is a network-path reference: joined to the upstream naively, it names
+    another host (the proxy fetched it, with the caller's Authorization header)."""
+    internal = ThreadingHTTPServer(("127.0.0.1", 0), _Recorder)
+    threading.Thread(target=internal.serve_forever, daemon=True).start()
+    port = internal.server_address[1]
+    try:
+        for path in (f"//127.0.0.1:{port}/internal", f"///127.0.0.1:{port}/internal", "//evil.example/x"):
+            with httpx.Client() as client:
+                request = client.build_request("GET", open_link.url + path, headers=AUTH)
+                request.url = request.url.copy_with(raw_path=path.encode())  # as curl --path-as-is
+                response = client.send(request)
+            assert response.status_code == 404, (path, response.text)
+            assert b"internal secret" not in response.content
+        assert _Recorder.hits == []
+    finally:
+        internal.shutdown()
+
+
+def test_link_body_limit_refuses_a_huge_chunked_body(open_link: ServerProcess) -> None:
+    def chunks() -> Iterator[bytes]:
+        yield b'{"type": "ptwl", "pad": "'
+        for _ in range(200):  # 200 x 64 KiB = 12.5 MiB, streamed (chunked, no Content-Length)
+            yield b"x" * 65536
+        yield b'"}'
+
+    sent_before = httpx.get(open_link.url + "/_link/stats").json()["uplink"]["released"]
+    response = httpx.post(
+        open_link.url + "/api/commands", content=chunks(), headers={"content-type": "application/json"}
+    )
+    assert response.status_code == 413 and "65536 byte limit" in response.json()["detail"]
+    # Refused at the proxy's door: it never entered the link (the robot used to answer this 413).
+    assert httpx.get(open_link.url + "/_link/stats").json()["uplink"]["released"] == sent_before
+    assert httpx.get(open_link.url + "/api/health").json()["queued"] == 0
+
+
+@pytest.mark.parametrize(
+    ("body", "status", "fragment"),
+    [
+        (json.dumps({"description": "x" * (10 * 2**20)}), 413, "65536 byte limit"),
+        (json.dumps({"description": "x" * 2001}), 422, "description"),
+        ('{"uplink": 0.5, "uplink": 0.0}', 422, "duplicate key 'uplink'"),
+        ('{"blackouts": ' + "[" * 20_000 + "]" * 20_000 + "}", 422, "nested deeper"),
+        ('{"uplink": true}', 422, "uplink"),
+        ('{"jitter": {"distribution": "uniform", "amount": 0.1, "seed": -3}}', 422, "seed"),
+    ],
+)
+def test_link_profile_is_bounded_and_strict(
+    open_link: ServerProcess, body: str, status: int, fragment: str
+) -> None:
+    before = httpx.get(open_link.url + "/_link/profile").json()
+    response = httpx.put(
+        open_link.url + "/_link/profile", content=body, headers={"content-type": "application/json"}
+    )
+    assert response.status_code == status, response.text
+    assert fragment in response.json()["detail"]
+    assert httpx.get(open_link.url + "/_link/profile").json() == before
+
+
+def test_link_record_survives_kill_9(tmp_path: Path) -> None:
+    """Every message the link had released when asked for its stats is in the record after
+    kill -9 (a 64 KiB buffer lost all 311 of them)."""
+    record = tmp_path / "link.jsonl"
+    with (
+        running_server("--scene", "free_space") as robot,
+        running_proxy(robot.url, "--record", str(record)) as link,
+    ):
+
+        async def listen() -> None:
+            url = link.url.replace("http://", "ws://") + "/api/telemetry"
+            async with websockets.connect(url) as ws:
+                end = time.monotonic() + 2.0
+                while time.monotonic() < end:
+                    await ws.recv()
+
+        asyncio.run(listen())
+        released = httpx.get(link.url + "/_link/stats").json()["downlink"]["released"]
+        os.kill(link.process.pid, signal.SIGKILL)
+        link.process.wait(10)
+    lines = [json.loads(line) for line in record.read_text().splitlines()]
+    downlink = [r for r in lines if r["direction"] == "downlink" and r["release"] is not None]
+    assert released >= 90  # ~2 s of 50 Hz telemetry
+    assert len(downlink) >= released
