@@ -11,10 +11,14 @@ from pydantic import (
     BaseModel,
     ConfigDict,
     Field,
+    GetCoreSchemaHandler,
+    GetJsonSchemaHandler,
     ValidatorFunctionWrapHandler,
     WrapValidator,
     model_validator,
 )
+from pydantic.json_schema import JsonSchemaValue
+from pydantic_core import CoreSchema, core_schema
 
 from robot_sim import limits
 from robot_sim.errors import UnknownNameError
@@ -24,21 +28,41 @@ AxisName = Literal["x", "y", "z", "rx", "ry", "rz"]
 AXIS_NAMES: tuple[AxisName, ...] = ("x", "y", "z", "rx", "ry", "rz")
 
 
-def _range(lo: float, hi: float, unit: str, *, lo_open: bool = False, hi_open: bool = False) -> WrapValidator:
-    """lo <= v <= hi (open ends as told); NaN and infinities are refused with the same message."""
-    text = f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'} {unit}".rstrip()
+class _Range:
+    """lo <= v <= hi (open ends as told); NaN and infinities are refused with the same message.
 
-    def check(value: Any, handler: ValidatorFunctionWrapHandler) -> float:
+    The one rule for a number's range: it validates, and it writes the same bounds into the
+    JSON schema, so the OpenAPI document says what the server enforces."""
+
+    def __init__(self, lo: float, hi: float, unit: str, *, lo_open: bool = False, hi_open: bool = False):
+        self.lo, self.hi, self.lo_open, self.hi_open = lo, hi, lo_open, hi_open
+        self.text = f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'} {unit}".rstrip()
+
+    def _check(self, value: Any, handler: ValidatorFunctionWrapHandler) -> float:
         if isinstance(value, float) and not math.isfinite(value):
-            raise ValueError(f"must be a finite number in {text}, got {value}")
+            raise ValueError(f"must be a finite number in {self.text}, got {value}")
         number = handler(value)
-        too_low = number <= lo if lo_open else number < lo
-        too_high = number >= hi if hi_open else number > hi
+        too_low = number <= self.lo if self.lo_open else number < self.lo
+        too_high = number >= self.hi if self.hi_open else number > self.hi
         if too_low or too_high:
-            raise ValueError(f"must be in {text}, got {number:g}")
+            raise ValueError(f"must be in {self.text}, got {number:g}")
         return float(number)
 
-    return WrapValidator(check)
+    def __get_pydantic_core_schema__(self, source: Any, handler: GetCoreSchemaHandler) -> CoreSchema:
+        return core_schema.no_info_wrap_validator_function(self._check, handler(source))
+
+    def __get_pydantic_json_schema__(
+        self, schema: CoreSchema, handler: GetJsonSchemaHandler
+    ) -> JsonSchemaValue:
+        json_schema = handler(schema)
+        if math.isfinite(self.lo):
+            json_schema["exclusiveMinimum" if self.lo_open else "minimum"] = self.lo
+        if math.isfinite(self.hi):
+            json_schema["exclusiveMaximum" if self.hi_open else "maximum"] = self.hi
+        return json_schema
+
+
+_range = _Range
 
 
 def _vector(limit: float, unit: str, *, direction: bool = False) -> WrapValidator:
@@ -71,10 +95,20 @@ ForceThreshold = Annotated[float, _range(0.0, limits.MAX_FORCE_THRESHOLD_N, "N",
 TorqueThreshold = Annotated[float, _range(0.0, limits.MAX_TORQUE_THRESHOLD_NM, "N m", lo_open=True)]
 
 
+def _type_required(schema: dict[str, Any]) -> None:
+    """`type` has a default for Python callers (PtwlParams() is a PTWL), but an API body must
+    name its behavior: the schema says so."""
+    required = schema.setdefault("required", [])
+    if "type" in schema.get("properties", {}) and "type" not in required:
+        required.insert(0, "type")
+
+
 class StrictModel(BaseModel):
     # NaN and infinities are refused everywhere; unknown fields are errors, not silently dropped;
     # strict: `true` or "5" is not a number (JSON ints are still fine where floats are asked).
-    model_config = ConfigDict(allow_inf_nan=False, extra="forbid", strict=True)
+    model_config = ConfigDict(
+        allow_inf_nan=False, extra="forbid", strict=True, json_schema_extra=_type_required
+    )
 
 
 OnBreach = Literal["limit", "freeze"]

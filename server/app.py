@@ -12,6 +12,7 @@ from guard.json_body import StrictJsonBody
 from server.commands import CommandBook, CommandRecord
 from server.config import BODY_LIMIT_BYTES, HISTORY_MAX, QUEUE_MAX, ServerConfig
 from server.errors import install_error_handlers
+from server.models import COMMON_RESPONSES
 from server.routes import commands, debug, robot, scenes, telemetry
 from server.runner import SimRunner, command_event
 from server.telemetry import Broadcaster
@@ -61,6 +62,7 @@ def create_app(config: ServerConfig) -> FastAPI:
             "base frame; wrenches [fx fy fz tx ty tz], environment on the port, base axes."
         ),
         lifespan=lifespan,
+        responses=COMMON_RESPONSES,
     )
     app.state.config = config
     install_error_handlers(app)

@@ -8,6 +8,8 @@ from typing import Any
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+from fastapi.routing import APIRoute
+from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from robot_sim.errors import UnknownNameError
 from server.commands import QueueFullError
@@ -43,6 +45,14 @@ def validation_response(errors: list[dict[str, Any]]) -> JSONResponse:
     return JSONResponse({"detail": detail, "errors": items}, status_code=422)
 
 
+def _methods_for(app: FastAPI, path: str) -> set[str]:
+    methods: set[str] = set()
+    for route in app.routes:
+        if isinstance(route, APIRoute) and route.path_regex.match(path):
+            methods |= route.methods or set()
+    return methods
+
+
 def install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(RequestValidationError)
     async def _validation(_: Request, exc: RequestValidationError) -> JSONResponse:
@@ -50,7 +60,16 @@ def install_error_handlers(app: FastAPI) -> None:
 
     @app.exception_handler(UnknownNameError)
     async def _unknown_name(_: Request, exc: UnknownNameError) -> JSONResponse:
-        return JSONResponse({"detail": str(exc), "valid": exc.valid}, status_code=422)
+        item = {"field": "body", "message": str(exc), "type": "unknown_name"}
+        return JSONResponse({"detail": str(exc), "errors": [item], "valid": exc.valid}, status_code=422)
+
+    @app.exception_handler(StarletteHTTPException)
+    async def _http(request: Request, exc: StarletteHTTPException) -> JSONResponse:
+        headers = dict(exc.headers or {})
+        if exc.status_code == 405:
+            # One path can have several routes (GET and POST /api/commands): list them all.
+            headers["Allow"] = ", ".join(sorted(_methods_for(app, request.url.path)))
+        return JSONResponse({"detail": exc.detail}, status_code=exc.status_code, headers=headers)
 
     @app.exception_handler(QueueFullError)
     async def _queue_full(_: Request, exc: QueueFullError) -> JSONResponse:

@@ -6,7 +6,7 @@ the library validate the same way.
 
 from typing import Annotated, Any, Literal
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
 
 from robot_sim.limits import MAX_SEED
 from robot_sim.params import DitherParams, PtwlParams, RweParams
@@ -14,6 +14,13 @@ from robot_sim.scenes import SCENES
 
 Command = Annotated[PtwlParams | RweParams | DitherParams, Field(discriminator="type")]
 CommandState = Literal["queued", "running", "done"]
+
+
+def _integral(value: Any) -> Any:
+    """JSON Schema counts 7.0 as an integer; strict pydantic would not. Strings and bools stay wrong."""
+    if isinstance(value, float) and value.is_integer():
+        return int(value)
+    return value
 
 
 def _known_scene(name: str) -> str:
@@ -106,7 +113,7 @@ class SceneRequest(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True)
 
     name: SceneName = Field(description="a scene from GET /api/scenes")
-    seed: Annotated[int, Field(ge=0, le=MAX_SEED)] | None = Field(
+    seed: Annotated[int, BeforeValidator(_integral), Field(ge=0, le=MAX_SEED)] | None = Field(
         None, description=f"[0, {MAX_SEED}] jitters the fixture; null for the nominal layout"
     )
 
@@ -155,6 +162,50 @@ class TaskModel(BaseModel):
 class StopResult(BaseModel):
     aborted: int | None = Field(description="the command that was running, now `aborted`")
     dropped: list[int] = Field(description="queued commands dropped (ended `aborted`)")
+
+
+class ErrorModel(BaseModel):
+    detail: str = Field(description="what went wrong and what to do, in words")
+
+
+class FieldErrorModel(BaseModel):
+    field: str = Field(description="the field, e.g. `duration` or `translation[1]`; `body` for the whole")
+    message: str = Field(description="what is wrong with it, with the allowed range")
+    type: str | None = Field(description="pydantic's error type, for programs")
+
+
+class ValidationErrorModel(BaseModel):
+    detail: str = Field(description="`field: message; ...`, to show as it is")
+    errors: list[FieldErrorModel] = Field(description="the same, one item per problem")
+
+
+def _error(description: str) -> dict[str, Any]:
+    return {"model": ErrorModel, "description": description}
+
+
+# Every route can answer these (guard/ runs before any route).
+COMMON_RESPONSES: dict[int | str, dict[str, Any]] = {
+    400: _error("the Host header is not one of the server's names (DNS rebinding guard)"),
+    401: _error("a token is set and none was sent (`Authorization: Bearer <token>`)"),
+    403: _error("wrong token, or a browser page from an origin that is not allowed"),
+    413: _error("request body over 64 KiB"),
+    422: {"model": ValidationErrorModel, "description": "a parameter or the body is invalid"},
+}
+SIM_RESPONSES: dict[int | str, dict[str, Any]] = {
+    503: _error("the simulation thread did not answer within 5 s"),
+}
+
+
+QUEUE_FULL_RESPONSES: dict[int | str, dict[str, Any]] = {
+    429: {
+        "model": ErrorModel,
+        "description": "the command queue is full (64): wait, or POST /api/stop",
+        "headers": {"Retry-After": {"description": "[s] when to try again", "schema": {"type": "integer"}}},
+    },
+}
+NOT_FOUND_RESPONSES: dict[int | str, dict[str, Any]] = {
+    404: _error("no command with that id (kept: last 1000)")
+}
 
 
 class GainsPreset(BaseModel):

@@ -123,3 +123,14 @@ def test_a_long_poll_that_runs_out_leaves_nothing_behind(robot: RobotClient) -> 
     assert robot.get(running, wait=0.3).status == "running"
     assert robot.health().long_polls == 0
     robot.stop()
+
+
+def test_a_short_soak_every_command_ends_exactly_once(server: ServerProcess) -> None:
+    """bench/soak.py at 600 commands (the benchmark runs 10,000): mixed behaviors with STOPs."""
+    from bench.soak import soak
+
+    figures = soak(server.url, server.process.pid, 600, warm_up=0)
+    assert figures["commands_accepted"] == 600 and figures["ids_unique"]
+    assert figures["terminal_once"] == 600
+    assert figures["terminal_more_than_once"] == 0 and figures["terminal_never"] == 0
+    assert figures["recent_records_done"] == figures["recent_records_checked"]

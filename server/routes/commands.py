@@ -7,7 +7,15 @@ from fastapi import APIRouter, Body, HTTPException, Query, Request, status
 from guard.disconnect import client_gone
 from robot_sim.impact import impact_warnings
 from robot_sim.params import PtwlParams
-from server.models import Command, CommandAccepted, CommandStatus, StopResult
+from server.models import (
+    NOT_FOUND_RESPONSES,
+    QUEUE_FULL_RESPONSES,
+    SIM_RESPONSES,
+    Command,
+    CommandAccepted,
+    CommandStatus,
+    StopResult,
+)
 from server.routes.deps import Book, DoneWaiters, Runner, on_sim_thread
 
 router = APIRouter(prefix="/api", tags=["commands"])
@@ -16,7 +24,12 @@ router = APIRouter(prefix="/api", tags=["commands"])
 MAX_WAIT_S = 60.0
 
 
-@router.post("/commands", status_code=status.HTTP_202_ACCEPTED, response_model=CommandAccepted)
+@router.post(
+    "/commands",
+    status_code=status.HTTP_202_ACCEPTED,
+    response_model=CommandAccepted,
+    responses=QUEUE_FULL_RESPONSES,
+)
 async def submit_command(
     request: Request,
     book: Book,
@@ -43,7 +56,7 @@ async def list_commands(
     return book.recent(limit)
 
 
-@router.get("/commands/{command_id}", response_model=CommandStatus)
+@router.get("/commands/{command_id}", response_model=CommandStatus, responses=NOT_FOUND_RESPONSES)
 async def get_command(
     request: Request,
     command_id: int,
@@ -62,7 +75,7 @@ async def get_command(
     return found
 
 
-@router.post("/stop", response_model=StopResult)
+@router.post("/stop", response_model=StopResult, responses=SIM_RESPONSES)
 async def stop(runner: Runner) -> StopResult:
     """Abort the running command, drop the queue, hold the robot where it is."""
     return StopResult(**await on_sim_thread(runner, runner.stop_all))

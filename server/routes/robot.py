@@ -5,7 +5,7 @@ from typing import Any
 from fastapi import APIRouter
 
 from robot_sim.presets import default_presets
-from server.models import GainsPreset, HealthModel, RobotStateModel, TaskModel
+from server.models import SIM_RESPONSES, GainsPreset, HealthModel, RobotStateModel, TaskModel
 from server.routes.deps import Book, DoneWaiters, Runner, on_sim_thread
 
 router = APIRouter(prefix="/api", tags=["robot"])
@@ -34,7 +34,7 @@ async def state(runner: Runner) -> dict[str, Any]:
     return runner.latest_state
 
 
-@router.get("/task", response_model=TaskModel)
+@router.get("/task", response_model=TaskModel, responses=SIM_RESPONSES)
 async def task(runner: Runner) -> TaskModel:
     """The scene's success predicate, evaluated now."""
 

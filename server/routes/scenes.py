@@ -4,7 +4,7 @@ from fastapi import APIRouter
 
 from robot_sim.geometry import scene_geometry
 from robot_sim.scenes import SCENES
-from server.models import GeometryModel, SceneModel, SceneRequest, StopResult
+from server.models import SIM_RESPONSES, GeometryModel, SceneModel, SceneRequest, StopResult
 from server.routes.deps import Runner, on_sim_thread
 
 router = APIRouter(prefix="/api", tags=["scenes"])
@@ -15,13 +15,13 @@ async def scenes() -> list[SceneModel]:
     return [SceneModel(name=s.name, description=s.description) for s in SCENES.values()]
 
 
-@router.post("/scene", response_model=StopResult)
+@router.post("/scene", response_model=StopResult, responses=SIM_RESPONSES)
 async def reset_scene(body: SceneRequest, runner: Runner) -> StopResult:
     """Stop everything (running and queued commands end `aborted`) and load the scene fresh."""
     return StopResult(**await on_sim_thread(runner, lambda: runner.reset_scene(body.name, body.seed)))
 
 
-@router.get("/geometry", response_model=GeometryModel)
+@router.get("/geometry", response_model=GeometryModel, responses=SIM_RESPONSES)
 async def geometry(runner: Runner) -> GeometryModel:
     """The loaded scene's geoms and bodies, to draw it; moving bodies' poses come with telemetry."""
 
