@@ -1,11 +1,13 @@
 """Shared fixtures: robot servers as real subprocesses."""
 
+import os
 from collections.abc import Iterator
 
 import pytest
 
 from server.client import RobotClient
 from server.launcher import ServerProcess, running_server
+from web.browser import chromium_available, launch
 
 
 @pytest.fixture(scope="module")
@@ -20,3 +22,19 @@ def robot(server: ServerProcess) -> Iterator[RobotClient]:
     with RobotClient(server.url) as client:
         client.reset_scene("free_space")
         yield client
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[object]:
+    """Debian's Chromium under Playwright (never `playwright install`). Outside CI the browser
+    tests skip without it; under CI=true its absence fails."""
+    if not chromium_available():
+        if os.environ.get("CI") == "true":
+            pytest.fail("CI=true but /usr/bin/chromium is missing: .ci/run must apt-get install chromium")
+        pytest.skip("Debian's chromium is not installed (apt-get install chromium)")
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as playwright:
+        chromium = launch(playwright)
+        yield chromium
+        chromium.close()

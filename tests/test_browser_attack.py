@@ -2,7 +2,6 @@
 opens the console's socket and the robot's telemetry, and POSTs a no-cors STOP. None of it may
 reach the robot; the same page served from an allowed origin shows the checks are what stop it."""
 
-import os
 import threading
 import time
 from collections.abc import Iterator
@@ -12,7 +11,6 @@ import pytest
 
 from server.client import RobotClient
 from server.launcher import ServerProcess, running_console, running_proxy, running_server
-from web.browser import chromium_available, launch
 
 ATTACK_PAGE = """<!doctype html><html><body><script>
 window.results = {};
@@ -56,20 +54,6 @@ class AttackSite:
     def close(self) -> None:
         self.server.shutdown()
         self.server.server_close()
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[object]:
-    if not chromium_available():
-        if os.environ.get("CI") == "true":
-            pytest.fail("CI=true but /usr/bin/chromium is missing: .ci/run must apt-get install chromium")
-        pytest.skip("Debian's chromium is not installed (apt-get install chromium)")
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as playwright:
-        chromium = launch(playwright)
-        yield chromium
-        chromium.close()
 
 
 def attack(

@@ -6,7 +6,6 @@ status lines (port position, telemetry age and sequence, commanded target), upda
 atomic batch as the scene; the tests read those.
 """
 
-import os
 import re
 import signal
 import subprocess
@@ -19,26 +18,11 @@ import httpx
 import pytest
 
 from server.launcher import ServerProcess, free_port, running_console, running_proxy, running_server
-from web.browser import chromium_available, launch
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
 ARTIFACTS = Path(__file__).resolve().parent.parent / "artifacts"
 PORT_TEXT = re.compile(r"port \((-?[\d.]+), (-?[\d.]+), (-?[\d.]+)\) mm")
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[object]:
-    if not chromium_available():
-        if os.environ.get("CI") == "true":
-            pytest.fail("CI=true but /usr/bin/chromium is missing: .ci/run must apt-get install chromium")
-        pytest.skip("Debian's chromium is not installed (apt-get install chromium)")
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as playwright:
-        chromium = launch(playwright)
-        yield chromium
-        chromium.close()
 
 
 @pytest.fixture(scope="module")
@@ -217,7 +201,9 @@ def test_a_command_from_one_browser_appears_in_another(browser, stack) -> None: 
     first, second = open_console(browser, stack[2].url), open_console(browser, stack[2].url)
     previous = send(first, "Send cmd")
     wait_status(first, "goal_reached", after=previous)
-    wait_status(second, "goal_reached", timeout_s=5.0, after=previous)
+    # Propagation, not speed (bench/console.py measures that): two pages drawing WebGL in
+    # software on a loaded 2-core CI machine fell behind 5 s once.
+    wait_status(second, "goal_reached", timeout_s=20.0, after=previous)
     assert command_id(first) == command_id(second) != previous
     first.close()
     second.close()

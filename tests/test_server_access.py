@@ -85,3 +85,16 @@ def test_websocket_needs_the_token_too(guarded: ServerProcess) -> None:
     assert asyncio.run(status_of(url, {"Authorization": "Bearer nope"})) == 403
     assert asyncio.run(status_of(url, {"Authorization": f"Bearer {TOKEN}"})) == 101
     assert asyncio.run(status_of(url + f"?token={TOKEN}")) == 101  # browsers cannot set headers
+
+
+@pytest.mark.parametrize("command", ["serve", "proxy"])
+@pytest.mark.parametrize("token", [" ", "a", "short-token", "has white space in it"])
+def test_a_weak_token_refuses_to_start(command: str, token: str) -> None:
+    result = subprocess.run(
+        [sys.executable, "-m", "server.cli", command, "--port", "0", "--token", token],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 2
+    assert "access token must be at least 16 characters with no whitespace" in result.stderr

@@ -77,7 +77,7 @@ def test_stop_over_the_delay_with_200_long_polls_open(stack: tuple[ServerProcess
         client = RobotClient(link.url)
         client.reset_scene("free_space")
         running = client.ptwl(translation=[0.0, 0.0, -0.02], duration=60.0).id
-        holder = threading.Thread(target=lambda: asyncio.run(_open_long_polls(link.url, running, 200, 8.0)))
+        holder = threading.Thread(target=lambda: asyncio.run(_open_long_polls(link.url, running, 200, 4.0)))
         holder.start()
         assert wait_for_long_polls(robot, 200) == 200
         start = time.monotonic()
