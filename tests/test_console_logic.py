@@ -160,3 +160,30 @@ def test_console_refuses_a_non_loopback_bind() -> None:
         timeout=60,
     )
     assert result.returncode == 2 and "the console has no login of its own" in result.stderr
+
+
+def first_message_or_close(url: str, headers: dict[str, str] | None = None) -> str:
+    """'message' if the viser socket sent anything, else how it ended."""
+    import viser
+    import websockets.sync.client
+    from websockets.typing import Subprotocol
+
+    protocol = [Subprotocol(f"viser-v{viser.__version__}")]
+    try:
+        with websockets.sync.client.connect(url, additional_headers=headers, subprotocols=protocol) as ws:
+            ws.recv(timeout=5.0)
+            return "message"
+    except websockets.InvalidStatus as err:
+        return f"refused {err.response.status_code}"
+    except websockets.ConnectionClosed as err:
+        return f"closed {err.rcvd.code if err.rcvd else None}"
+
+
+def test_viser_own_port_refuses_a_socket_that_skipped_the_front_door(console: ConsoleApp) -> None:
+    """A page that finds viser's ephemeral port by scanning 127.0.0.1 gets nothing from it."""
+    inner = f"ws://127.0.0.1:{console.server.get_port()}"
+    assert first_message_or_close(inner) == "closed 1011"
+    forged = {"X-Ptwl-Front-Door": "guessed"}
+    assert first_message_or_close(inner, forged) == "closed 1011"
+    # Through the front door the same socket gets the panel, even with a forged mark of its own.
+    assert first_message_or_close(console.url.replace("http://", "ws://"), forged) == "message"

@@ -17,7 +17,7 @@ import viser
 from server.client import RobotClient, RobotError
 from web.defaults import load_defaults
 from web.feed import TelemetryFeed
-from web.front_door import FrontDoor
+from web.front_door import FrontDoor, admit_only_through
 from web.history import CommandHistory, CommandView
 from web.panel import Panel
 from web.robot_view import RobotView
@@ -44,6 +44,7 @@ class ConsoleApp:
         # viser checks no Origin: it listens on an ephemeral loopback port behind the front door.
         self.server = viser.ViserServer(host="127.0.0.1", port=0, label="ptwl console", verbose=False)
         self.front_door = FrontDoor(host, port, self.server.get_port(), allow_origins)
+        admit_only_through(self.front_door, self.server)
         self._host = host
         self._front_port = self.front_door.start()
         # Looking at the workspace in front of the arm, from front-left and above.

@@ -5,18 +5,26 @@ origin could open it and press Send. Browsers connect here instead; each connect
 head is judged by guard/ (Host, Origin) before a byte reaches viser, which listens on an
 ephemeral loopback port. viser answers one request per connection (static files or the
 WebSocket upgrade), so judging the first head judges the whole connection.
+
+A page could still find viser's own port by scanning 127.0.0.1, so the front door marks every
+head it passes with a per-run secret (`X-Ptwl-Front-Door`, any such header from the client is
+dropped first) and `admit_only_through` makes viser drop a WebSocket without it before a
+message is sent or read.
 """
 
 import asyncio
 import contextlib
 import json
+import secrets
 import threading
+from typing import Any
 from urllib.parse import urlsplit
 
 from guard.access import AccessPolicy
 from guard.asgi import denial
 
 MAX_HEAD_BYTES = 64 * 1024
+MARK = "x-ptwl-front-door"
 REASONS = {400: "Bad Request", 403: "Forbidden", 431: "Request Header Fields Too Large", 503: "Unavailable"}
 
 
@@ -30,6 +38,29 @@ def _parse_head(head: bytes) -> tuple[str, dict[str, str]]:
         if sep:
             headers[name.strip().lower()] = value.strip()
     return target, headers
+
+
+def _marked(head: bytes, secret: str) -> bytes:
+    """The head with any client-sent mark removed and ours added."""
+    lines = head.decode("latin-1").split("\r\n")[:-2]  # the head ends with an empty line
+    kept = [line for line in lines if not line.lower().startswith(MARK + ":")]
+    return ("\r\n".join([*kept, f"{MARK}: {secret}"]) + "\r\n\r\n").encode("latin-1")
+
+
+def admit_only_through(front_door: "FrontDoor", viser_server: Any) -> None:
+    """Make viser refuse any WebSocket that did not come through `front_door`.
+
+    Uses viser's WebsockServer internals (its connect callbacks run before any message moves,
+    and it keeps each raw connection); `ConsoleApp` refuses to start if they are missing."""
+    infra = viser_server._websock_server
+    connections = infra._live_connections
+
+    async def check(client: Any) -> None:
+        headers = connections[client.client_id].request.headers
+        if headers.get(MARK) != front_door.secret:
+            raise PermissionError("WebSocket did not come through the console's front door")
+
+    infra._client_connect_cb.insert(0, check)  # before viser builds the client's handle
 
 
 def _refusal(status: int, detail: str) -> bytes:
@@ -56,6 +87,7 @@ class FrontDoor:
     def __init__(self, host: str, port: int, inner_port: int, allow_origins: tuple[str, ...] = ()) -> None:
         self._host, self._port, self._inner_port = host, port, inner_port
         self._allow_origins = allow_origins
+        self.secret = secrets.token_urlsafe(24)
         self.policy: AccessPolicy | None = None
         self._loop = asyncio.new_event_loop()
         self._server: asyncio.Server | None = None
@@ -101,7 +133,7 @@ class FrontDoor:
             writer.write(_refusal(503, "console not ready"))
             await _close(writer)
             return
-        inner_writer.write(head)
+        inner_writer.write(_marked(head, self.secret))
         await asyncio.gather(_pipe(reader, inner_writer), _pipe(inner_reader, writer))
 
 
