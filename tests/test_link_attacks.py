@@ -176,3 +176,22 @@ def test_link_record_survives_kill_9(tmp_path: Path) -> None:
     downlink = [r for r in lines if r["direction"] == "downlink" and r["release"] is not None]
     assert released >= 90  # ~2 s of 50 Hz telemetry
     assert len(downlink) >= released
+
+
+def test_upstream_urls_can_only_name_the_upstream() -> None:
+    """Both layers on their own: `//` paths are refused, and any path is joined onto the
+    upstream's own scheme, host and port."""
+    from guard.access import AccessPolicy
+    from latency.link import Link
+    from latency.profile import LinkProfile
+    from latency.proxy import LinkProxy
+
+    proxy = LinkProxy("http://127.0.0.1:8000", Link(LinkProfile()), AccessPolicy("127.0.0.1", 8001))
+    for path in ("//127.0.0.1:18999/internal", "///evil.example/x", "relative", ""):
+        assert proxy._upstream_target(path, "") is None, path
+    target = proxy._upstream_target("/api/commands/7", "wait=1")
+    assert str(target) == "http://127.0.0.1:8000/api/commands/7?wait=1"
+    odd = proxy._upstream_target("/@evil.example:80/x", "")
+    assert odd is not None and (odd.host, odd.port) == ("127.0.0.1", 8000)
+    ws = proxy._upstream_target("/api/telemetry", "token=t", "ws")
+    assert str(ws) == "ws://127.0.0.1:8000/api/telemetry?token=t"
