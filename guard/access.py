@@ -81,10 +81,6 @@ class AccessPolicy:
             names.add(socket.gethostname().lower())
         object.__setattr__(self, "names", frozenset(names))
 
-    def with_port(self, port: int) -> "AccessPolicy":
-        """The same policy once the real port is known (port 0 binds an ephemeral one)."""
-        return AccessPolicy(self.bind_host, port, self.token, self.extra_hosts, self.extra_origins)
-
     def host_problem(self, host_header: str | None) -> str | None:
         if not host_header:
             return "missing Host header"

@@ -63,6 +63,12 @@ FT_CUTOFF_HZ = 100.0
 STIFFNESS_EPS = 1e-9
 
 
+def _rotated_diagonal(R: np.ndarray, diagonal: np.ndarray, out: np.ndarray, tmp: np.ndarray) -> None:
+    """out = R diag(diagonal) R^T (3, 3): a diagonal gain in R's axes, seen in base axes."""
+    np.multiply(R, diagonal, out=tmp)
+    np.dot(tmp, R.T, out=out)
+
+
 class Limit(StrEnum):
     """What held the commanded motion back this tick (reported as `limited: <value>`)."""
 
@@ -250,10 +256,8 @@ class AdmittanceController:
         self._to_base(self._k_over_b[3:6], self._kb_rot)
 
     def _to_base(self, diagonal: np.ndarray, out: np.ndarray) -> None:
-        """out = R diag(diagonal) R^T: a diagonal in the gains' axes, in base axes (3, 3)."""
-        R = self._R_gains
-        np.multiply(R, diagonal, out=self._tmp33)
-        np.dot(self._tmp33, R.T, out=out)
+        """out = R diag(diagonal) R^T with R the gains' current axes (3, 3)."""
+        _rotated_diagonal(self._R_gains, diagonal, out, self._tmp33)
 
     # ------------------------------------------------------------------------ measuring
     def measure(self) -> None:
@@ -289,10 +293,11 @@ class AdmittanceController:
 
     def _diag_world(self, diagonal: np.ndarray) -> np.ndarray:
         """(6, 6) blockdiag(R diag R^T) of a (6,) diagonal in the gains' axes."""
-        R = self.gains_rotation()
+        R, tmp, block = self.gains_rotation(), np.zeros((3, 3)), np.zeros((3, 3))
         out = np.zeros((6, 6))
-        out[0:3, 0:3] = R @ np.diag(diagonal[0:3]) @ R.T
-        out[3:6, 3:6] = R @ np.diag(diagonal[3:6]) @ R.T
+        for axes in (slice(0, 3), slice(3, 6)):
+            _rotated_diagonal(R, diagonal[axes], block, tmp)  # np.dot needs a contiguous out
+            out[axes, axes] = block
         return out
 
     def stiffness_world(self) -> np.ndarray:

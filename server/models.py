@@ -8,9 +8,10 @@ from typing import Annotated, Any, Literal
 
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
 
+from robot_sim.errors import UnknownNameError
 from robot_sim.limits import MAX_SEED
 from robot_sim.params import DitherParams, PtwlParams, RweParams
-from robot_sim.scenes import SCENES
+from robot_sim.scenes import SCENES, get_scene
 
 Command = Annotated[PtwlParams | RweParams | DitherParams, Field(discriminator="type")]
 CommandState = Literal["queued", "running", "done"]
@@ -24,8 +25,10 @@ def _integral(value: Any) -> Any:
 
 
 def _known_scene(name: str) -> str:
-    if name not in SCENES:
-        raise ValueError(f"unknown scene {name!r}; valid: {', '.join(sorted(SCENES))}")
+    try:
+        get_scene(name)
+    except UnknownNameError as err:  # a KeyError: pydantic reports ValueErrors
+        raise ValueError(str(err)) from None
     return name
 
 

@@ -18,11 +18,16 @@ from web.targets import displacement_to, ptwl_target
 PORT_POSE = (np.array([0.378, 0.0, 0.27]), np.array([0.0, 0.0, 1.0, 0.0]))  # tool z down
 
 
+def random_port(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """A port pose anywhere within 0.5 m, any orientation (position, wxyz)."""
+    return rng.uniform(-0.5, 0.5, 3), tf.SO3.exp(rng.uniform(-2, 2, 3)).wxyz
+
+
 @pytest.mark.parametrize("frame", ["tool", "base"])
 def test_gizmo_pose_maps_back_to_the_displacement_that_reaches_it(frame: str) -> None:
     rng = np.random.default_rng(3)
     for _ in range(20):
-        port = (rng.uniform(-0.5, 0.5, 3), tf.SO3.exp(rng.uniform(-2, 2, 3)).wxyz)
+        port = random_port(rng)
         translation, rotation = rng.uniform(-0.1, 0.1, 3), rng.uniform(-1.0, 1.0, 3)
         target = ptwl_target(port, translation, rotation, frame)
         back_t, back_r = displacement_to(port, target, frame)
@@ -35,7 +40,7 @@ def test_console_target_is_the_robots_ptwl_goal(frame: str) -> None:
     """The contemplated/commanded marker and the robot compute the same goal (one rule, two sides)."""
     rng = np.random.default_rng(5)
     for _ in range(20):
-        port = (rng.uniform(-0.5, 0.5, 3), tf.SO3.exp(rng.uniform(-2, 2, 3)).wxyz)
+        port = random_port(rng)
         translation, rotation = rng.uniform(-0.2, 0.2, 3), rng.uniform(-1.5, 1.5, 3)
         params = PtwlParams(translation=list(translation), rotation=list(rotation), frame=frame)
         p_goal, q_goal = ptwl_goal(port[0], port[1], params)

@@ -23,12 +23,16 @@ def circle_fit(t: np.ndarray, xy: np.ndarray) -> tuple[float, float]:
     return radius, float(np.polyfit(t, phase, 1)[0] / (2 * math.pi))
 
 
+def free_space_dither(preset: str) -> tuple[Simulation, DitherParams, Dither]:
+    """A free-space simulation and a not yet started Dither of `preset`."""
+    params = DitherParams(preset=preset)
+    return Simulation("free_space"), params, Dither(params)
+
+
 @pytest.mark.parametrize("preset", ["translational_push", "translational_pull"])
 def test_translational_preset_circles_and_travels(preset: str) -> None:
-    sim = Simulation("free_space")
+    sim, params, behavior = free_space_dither(preset)
     ctl = sim.controller
-    params = DitherParams(preset=preset)
-    behavior = Dither(params)
     p0 = ctl.p_world_port.copy()
     sim.start(behavior)
     e1, e2 = perpendicular_basis(behavior.axis_world)
@@ -62,10 +66,8 @@ def test_translational_preset_circles_and_travels(preset: str) -> None:
 @pytest.mark.parametrize("preset", ["torsional_push", "torsional_pull"])
 def test_torsional_preset_turns_about_its_axis_with_the_origin_on_it(preset: str) -> None:
     """Paper 2.2.3: "the attractor rotates about a specified axis while keeping its origin on it"."""
-    sim = Simulation("free_space")
+    sim, params, behavior = free_space_dither(preset)
     ctl = sim.controller
-    params = DitherParams(preset=preset)
-    behavior = Dither(params)
     p0 = ctl.p_world_attractor.copy()
     q0 = ctl.q_world_attractor.copy()
     sim.start(behavior)
