@@ -19,6 +19,7 @@ import httpx
 from websockets.sync.client import connect
 
 from server.models import (
+    SENDER_HEADER,
     CommandAccepted,
     CommandStatus,
     GeometryModel,
@@ -98,9 +99,12 @@ class RobotClient:
         return CommandStatus(**self._request("GET", f"/api/commands/{command_id}", params={"wait": wait}))
 
     # -------------------------------------------------------------------- writes
-    def command(self, type: str, **params: Any) -> CommandAccepted:
-        """Queue a behavior: `type` is ptwl, rwe or dither; params as in the API (SI units)."""
-        return CommandAccepted(**self._request("POST", "/api/commands", json={"type": type, **params}))
+    def command(self, type: str, sender: str | None = None, **params: Any) -> CommandAccepted:
+        """Queue a behavior: `type` is ptwl, rwe or dither; params as in the API (SI units);
+        `sender` is kept in the command's record (who sent it)."""
+        headers = {SENDER_HEADER: sender} if sender else None
+        body = {"type": type, **params}
+        return CommandAccepted(**self._request("POST", "/api/commands", json=body, headers=headers))
 
     def ptwl(self, **params: Any) -> CommandAccepted:
         return self.command("ptwl", **params)

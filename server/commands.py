@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from robot_sim.behaviors import BehaviorParams, BehaviorReport
+from robot_sim.behaviors.base import Pose
 from server.models import CommandStatus, PoseModel
 
 
@@ -54,6 +55,8 @@ class CommandRecord:
     exit: str | None = None
     report: BehaviorReport | None = None
     detail: str = ""
+    sender: str | None = None
+    goal: Pose | None = None
 
     def to_model(self) -> CommandStatus:
         """The API's view. A fault can leave NaN in the report: such fields become null, with
@@ -82,6 +85,8 @@ class CommandRecord:
             final_wrench=final_wrench,
             final_port=final_port,
             detail=detail,
+            sender=self.sender,
+            goal=PoseModel(**self.goal.as_dict()) if self.goal else None,
         )
 
 
@@ -104,11 +109,13 @@ class CommandBook:
         """(under the lock) The one place a status change is announced."""
         self._on_change(record)
 
-    def submit(self, params: BehaviorParams) -> CommandRecord:
+    def submit(self, params: BehaviorParams, sender: str | None = None) -> CommandRecord:
         with self._lock:
             if len(self._queue) >= self._queue_max:
                 raise QueueFullError(self._queue_max)
-            record = CommandRecord(self._next_id, self.instance, params, params.model_dump(), time.time())
+            record = CommandRecord(
+                self._next_id, self.instance, params, params.model_dump(), time.time(), sender=sender
+            )
             self._next_id += 1
             self._queue.append(record)
             self._records[record.id] = record
@@ -116,12 +123,17 @@ class CommandBook:
             self._changed(record)
             return record
 
-    def start_next(self) -> CommandRecord | None:
-        """Pop the oldest queued command and mark it running (simulation thread)."""
+    def start_next(self, start: Callable[[CommandRecord], Pose | None]) -> CommandRecord | None:
+        """Pop the oldest queued command, `start` it and mark it running (simulation thread).
+
+        `start` returns the absolute goal the robot resolved (a PTWL's port-at-start (+)
+        displacement), so the `running` event carries it: a console can draw the target the robot
+        is really heading for, not one it guessed from a delayed port."""
         with self._lock:
             if self.running is not None or not self._queue:
                 return None
             record = self._queue.popleft()
+            record.goal = start(record)
             record.status = "running"
             record.started_at = time.time()
             self.running = record

@@ -40,6 +40,8 @@ class PoseModel(BaseModel):
     quaternion: list[float] = Field(description="unit quaternion w x y z, base frame")
 
 
+SENDER_HEADER = "x-ptwl-sender"
+SENDER_PATTERN = r"^[\x20-\x7e]{1,64}$"  # printable ASCII: it is shown to every operator
 INSTANCE_DOC = "the server run that gave the id (changes on every restart)"
 
 
@@ -80,6 +82,22 @@ class CommandStatus(BaseModel):
         description="why it ended, when there is more to say: stop, fault, or what held the port "
         "back (`limited: singularity (1.20 s)`; also joint_limit, speed)",
     )
+    sender: str | None = Field(
+        None, description=f"who sent it, from the `{SENDER_HEADER}` request header; null if not said"
+    )
+    goal: PoseModel | None = Field(
+        None,
+        description="the absolute pose the robot resolved at start (a PTWL's port at start (+) its "
+        "displacement); null before it starts and for behaviors without one",
+    )
+
+
+class TaskProgressModel(BaseModel):
+    predicate: str = Field(description="what success means, in words")
+    success: bool = Field(description="the predicate holds now")
+    progress: float | None = Field(description="the measured quantity, in `unit`; null if not finite")
+    target: float = Field(description="the value `progress` must reach, in `unit`")
+    unit: str = Field(description="unit of `progress` and `target`")
 
 
 class RobotStateModel(BaseModel):
@@ -98,6 +116,9 @@ class RobotStateModel(BaseModel):
     )
     bodies: dict[str, list[float]] = Field(
         default_factory=dict, description="moving bodies' poses [x y z (m), qw qx qy qz], base frame"
+    )
+    task: TaskProgressModel | None = Field(
+        None, description="the scene's success predicate now (as GET /api/task, without `scene`)"
     )
 
 
@@ -153,13 +174,8 @@ class GeometryModel(BaseModel):
     geoms: list[GeomModel] = Field(description="every visible geom")
 
 
-class TaskModel(BaseModel):
+class TaskModel(TaskProgressModel):
     scene: str = Field(description="loaded scene")
-    predicate: str = Field(description="what success means, in words")
-    success: bool = Field(description="the predicate holds now")
-    progress: float = Field(description="the measured quantity, in `unit`")
-    target: float = Field(description="the value `progress` must reach, in `unit`")
-    unit: str = Field(description="unit of `progress` and `target`")
 
 
 class StopResult(BaseModel):

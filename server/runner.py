@@ -16,8 +16,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from robot_sim.behaviors import BehaviorReport, behavior_for
+from robot_sim.behaviors.base import Pose
 from robot_sim.geometry import body_poses, moving_bodies
-from robot_sim.scenes import get_scene
+from robot_sim.scenes import TaskProgress, get_scene
 from robot_sim.sim import Simulation
 from server.commands import CommandBook, CommandRecord
 from server.pacing import RealTimePacer
@@ -121,10 +122,12 @@ class SimRunner:
                 request.reply.set_exception(err)
 
     def _start_next(self) -> None:
-        record = self.book.start_next()
-        if record is None:
-            return
-        self.sim.start(behavior_for(record.params))
+        def start(record: CommandRecord) -> Pose | None:
+            behavior = behavior_for(record.params)
+            self.sim.start(behavior)
+            return behavior.goal_pose()
+
+        self.book.start_next(start)
 
     def _advance(self) -> None:
         faults_before = self.sim.fault_count
@@ -154,6 +157,7 @@ class SimRunner:
             "faults": self.sim.fault_count,
             "limited": state.limited,
             "bodies": body_poses(self.sim.model, self.sim.data, self._moving),
+            "task": task_fields(self.sim.task()),
         }
 
     def _publish_state(self) -> None:
@@ -163,6 +167,15 @@ class SimRunner:
         self._next_telemetry += self._period
         if self._next_telemetry < self.sim.time:  # fell behind (dropped backlog): no burst
             self._next_telemetry = self.sim.time + self._period
+
+
+def task_fields(progress: TaskProgress) -> dict[str, Any]:
+    """The task predicate for telemetry; a non-finite progress (a fault mid-evaluation) is null,
+    so every message stays strict JSON."""
+    task = dict(progress.__dict__)
+    if not math.isfinite(task["progress"]):
+        task["progress"] = None
+    return task
 
 
 def command_event(record: CommandRecord) -> str:

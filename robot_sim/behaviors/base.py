@@ -92,3 +92,9 @@ class Behavior(ABC):
     @abstractmethod
     def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:
         """Move the attractor for time t [s]; return an exit condition to end."""
+
+    def goal_pose(self) -> Pose | None:
+        """(after start) The absolute pose it drives the port to, if it has one: what an
+        operator's display should show as commanded once the robot has resolved a relative
+        displacement against the port where it really was at start."""
+        return None

@@ -15,7 +15,7 @@ frame at start (`tool`) or base axes (`base`); both rotate about the port's orig
 import mujoco
 import numpy as np
 
-from robot_sim.behaviors.base import Behavior, ExitCondition, end_breach, wrench_breached
+from robot_sim.behaviors.base import Behavior, ExitCondition, Pose, end_breach, wrench_breached
 from robot_sim.controller import AdmittanceController
 from robot_sim.params import PtwlParams
 from robot_sim.pose_math import angle_between, rotate_world, rotation_matrix, rotvec_from_to
@@ -65,6 +65,10 @@ class Ptwl(Behavior):
         self._rotvec_world[:] = rotvec_from_to(self._q_world_from, self.q_world_goal)
         self._rotates = bool(np.any(self._rotvec_world != 0.0))
         self._arrived = False
+
+    def goal_pose(self) -> Pose:
+        p, q = self.p_world_goal.tolist(), self.q_world_goal.tolist()
+        return Pose((p[0], p[1], p[2]), (q[0], q[1], q[2], q[3]))
 
     def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:
         p = self.params

@@ -2,7 +2,7 @@
 
 from typing import Annotated
 
-from fastapi import APIRouter, Body, HTTPException, Query, Request, status
+from fastapi import APIRouter, Body, Header, HTTPException, Query, Request, status
 
 from guard.disconnect import client_gone
 from robot_sim.impact import impact_warnings
@@ -10,6 +10,8 @@ from robot_sim.params import PtwlParams
 from server.models import (
     NOT_FOUND_RESPONSES,
     QUEUE_FULL_RESPONSES,
+    SENDER_HEADER,
+    SENDER_PATTERN,
     SIM_RESPONSES,
     Command,
     CommandAccepted,
@@ -35,12 +37,20 @@ async def submit_command(
     book: Book,
     runner: Runner,
     params: Annotated[Command, Body(discriminator="type")],
+    sender: Annotated[
+        str | None,
+        Header(
+            alias=SENDER_HEADER,
+            pattern=SENDER_PATTERN,
+            description="who sends it (1-64 printable ASCII characters), kept in its record",
+        ),
+    ] = None,
 ) -> CommandAccepted:
     """Validate and queue a PTWL, RWE or Dither; commands run in order, one at a time.
 
     `warnings` says what is accepted but worth knowing (an approach that will overshoot the
     force threshold on impact)."""
-    record = book.submit(params)
+    record = book.submit(params, sender)
     warnings: list[str] = []
     if isinstance(params, PtwlParams):
         q_world_port = runner.latest_state["port"]["quaternion"]

@@ -7,6 +7,7 @@ from fastapi import APIRouter
 from robot_sim.presets import default_presets
 from server.models import SIM_RESPONSES, GainsPreset, HealthModel, RobotStateModel, TaskModel
 from server.routes.deps import Book, DoneWaiters, Runner, on_sim_thread
+from server.runner import task_fields
 
 router = APIRouter(prefix="/api", tags=["robot"])
 
@@ -40,7 +41,7 @@ async def task(runner: Runner) -> TaskModel:
 
     def evaluate() -> TaskModel:
         progress = runner.sim.task()
-        return TaskModel(scene=runner.sim.scene.name, **progress.__dict__)
+        return TaskModel(scene=runner.sim.scene.name, **task_fields(progress))
 
     return await on_sim_thread(runner, evaluate)
 
