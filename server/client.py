@@ -16,6 +16,7 @@ from types import TracebackType
 from typing import Any, Self
 
 import httpx
+from websockets.exceptions import ConnectionClosedOK
 from websockets.sync.client import connect
 
 from server.models import (
@@ -144,13 +145,21 @@ class RobotClient:
             self.base_url.replace("http://", "ws://", 1).replace("https://", "wss://", 1) + "/api/telemetry"
         )
 
-    def telemetry(self, open_timeout: float = 10.0) -> Iterator[dict[str, Any]]:
-        """State and command messages as they arrive; stops when the server closes."""
+    def telemetry(self, open_timeout: float = 10.0, idle_s: float | None = None) -> Iterator[dict[str, Any]]:
+        """State and command messages as they arrive; stops when the server closes. With `idle_s`,
+        `{"type": "idle"}` comes whenever nothing arrived for that long (so a reader can stop)."""
         headers = {"Authorization": f"Bearer {self.token}"} if self.token else None
         # Keepalive pings off: over a multi-second link they would time out; the age of the
         # telemetry (`sent_at`) is the liveness signal instead.
         with connect(
             self.telemetry_url(), additional_headers=headers, open_timeout=open_timeout, ping_interval=None
         ) as ws:
-            for text in ws:
+            while True:
+                try:
+                    text = ws.recv(timeout=idle_s)
+                except TimeoutError:
+                    yield {"type": "idle"}
+                    continue
+                except ConnectionClosedOK:
+                    return
                 yield json.loads(text)

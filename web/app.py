@@ -1,13 +1,18 @@
 """The operator console: viser GUI + 3D scene, talking to the robot only through the link.
 
-What the operator sees, after the teleoperation paper: intent at once (the contemplated target
-while typing, the commanded target from Send), the robot as it reports itself when that report
-arrives (with how old it is), and each command's life with its exit condition.
+What the operator sees, after the teleoperation paper: intent at once (each browser's own
+contemplated target while typing, the commanded target from Send), the robot as it reports itself
+when that report arrives (with how old it is, counted on while nothing arrives), and each
+command's life with its exit condition and who sent it. One browser holds control at a time.
+
+The pieces own their handles: `StatusBar` (pinned; age, link, task, STOP), `Board` (what every
+browser shares), `Desk` (one per browser), `RobotView` (the 3D scene), `TelemetryFeed` and
+`LinkPoller` (threads, stopped by `close()`).
 """
 
 import threading
 import time
-from collections import deque
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any, Literal
 
 import httpx
@@ -15,17 +20,22 @@ import numpy as np
 import viser
 
 from server.client import RobotClient, RobotError
+from web.board import Board
 from web.defaults import load_defaults
+from web.desk import Desk
 from web.feed import TelemetryFeed
 from web.front_door import FrontDoor, admit_only_through
 from web.history import CommandHistory, CommandView
-from web.panel import Panel
+from web.link_poller import LinkPoller
 from web.robot_view import RobotView
-from web.targets import Pose, displacement_to, ptwl_target
+from web.seat import ControlSeat, operator_name
+from web.status_bar import BarInputs, Level, StatusBar
+from web.targets import Pose
 
 NotificationColor = Literal["gray", "red", "green", "orange", "yellow", "blue"]
 HTTP_TIMEOUT_S = 120.0  # requests cross the link twice; long delays are the point
 PLOT_EVERY = 5  # telemetry messages per plot refresh (10 Hz at 50 Hz telemetry)
+RECORDS_ON_RECONNECT = 100  # how many of the robot's recent records to re-read
 
 
 class ConsoleApp:
@@ -50,23 +60,27 @@ class ConsoleApp:
         # Looking at the workspace in front of the arm, from front-left and above.
         self.server.initial_camera.position = (1.05, -0.75, 0.75)
         self.server.initial_camera.look_at = (0.33, 0.0, 0.28)
+        self.server.gui.configure_theme(control_width="large", dark_mode=False)
         self.history = CommandHistory()
+        self.seat = ControlSeat()
         self._lock = threading.Lock()
         self._state: dict[str, Any] | None = None
-        self._last_seq: int | None = None
-        self._last_arrival: float | None = None
-        self._last_sent_at: float | None = None
+        self._arrived: float | None = None
+        self._link_up = False
         self._link_text = "connecting"
         self._restart_note = ""
         self._commanded: CommandView | None = None
-        self._syncing_gizmo = False
-        self._plot: deque[tuple[float, ...]] = deque()
+        self._plot: list[tuple[float, ...]] = []
         self._count = 0
+        self._reconciling = threading.Lock()
         self.scene_name = ""
         self._closed = False
-        self.panel: Panel | None = None
+        self._desks: dict[int, Desk] = {}
         self.view: RobotView | None = None
+        self.board: Board | None = None
+        self.bar: StatusBar | None = None
         self.feed: TelemetryFeed | None = None
+        self.link_poller: LinkPoller | None = None
 
     @property
     def url(self) -> str:
@@ -75,43 +89,76 @@ class ConsoleApp:
 
     # ---------------------------------------------------------------- start
     def connect(self, timeout: float = 120.0) -> None:
-        """Wait for the robot (through the link), then build the panel and the scene."""
+        """Wait for the robot (through the link), then build the panels and the scene."""
         waiting = self.server.gui.add_markdown(f"Waiting for the robot at {self.robot_url} ...")
         deadline = time.monotonic() + timeout
-        while True:
-            try:
-                presets = self.client.presets()
-                scenes = [s.name for s in self.client.scenes()]
-                geometry = self.client.geometry()
-                break
-            except (RobotError, httpx.HTTPError) as err:
-                if time.monotonic() > deadline:
-                    raise RuntimeError(f"robot at {self.robot_url} not reachable: {err}") from None
-                time.sleep(1.0)
+        with ThreadPoolExecutor(3, thread_name_prefix="ptwl-start") as pool:
+            while True:
+                # Concurrently: over a 3 s round trip, three in a row would take three round trips.
+                presets_call = pool.submit(self.client.presets)
+                scenes_call = pool.submit(self.client.scenes)
+                geometry_call = pool.submit(self.client.geometry)
+                try:
+                    presets, scene_list = presets_call.result(), scenes_call.result()
+                    geometry = geometry_call.result()
+                    break
+                except (RobotError, httpx.HTTPError) as err:
+                    if time.monotonic() > deadline:
+                        raise RuntimeError(f"robot at {self.robot_url} not reachable: {err}") from None
+                    time.sleep(1.0)
         waiting.remove()
-        dither = presets.pop("dither")
+        self._dither_presets = presets.pop("dither")
+        self._stiffness_presets = list(presets)
         self.scene_name = geometry.scene
         self.view = RobotView(self.server, self.defaults.wrench_arrow_m_per_n)
         self.view.load(geometry)
-        self.panel = Panel(self.server, self.defaults, list(presets), dither, scenes, geometry.scene)
-        self.gizmo = self.server.scene.add_transform_controls("/gizmo", scale=0.08, visible=False)
-        self._wire()
+        self.bar = StatusBar(self.server.gui, self._bar_inputs, self._on_level)
+        self.board = Board(self.server.gui, [s.name for s in scene_list], geometry.scene)
+        self.bar.stop.on_click(lambda event: self.stop(event.client))
+        self.board.reset_scene.on_click(lambda _: self.reset_scene())
+        self.seat.on_change(self._seat_changed)
+        self.server.on_client_connect(self._client_connected)
+        self.server.on_client_disconnect(self._client_disconnected)
         self.feed = TelemetryFeed(self.client, self._on_state, self._on_command, self._on_link)
+        self.link_poller = LinkPoller(self.robot_url, self.token, self._on_link_profile)
         self.feed.start()
-        threading.Thread(target=self._poll_link_profile, name="ptwl-link-profile", daemon=True).start()
+        self.link_poller.start()
+        self.bar.start()
 
-    def _wire(self) -> None:
-        panel = self.panel
-        assert panel is not None
-        panel.send_ptwl.on_click(lambda _: self.send_ptwl())
-        panel.send_rwe.on_click(lambda _: self._send("rwe", panel.rwe_params()))
-        panel.send_dither.on_click(lambda _: self._send("dither", panel.dither_params()))
-        panel.stop.on_click(lambda _: self.stop())
-        panel.reset_scene.on_click(lambda _: self.reset_scene())
-        for field in (panel.translation, panel.rotation, panel.frame):
-            field.on_update(lambda _: self._fields_changed())
-        panel.show_gizmo.on_update(lambda _: self._fields_changed())
-        self.gizmo.on_update(lambda _: self._gizmo_moved())
+    # ---------------------------------------------------------------- desks
+    def _client_connected(self, client: viser.ClientHandle) -> None:
+        if self._closed:
+            return
+        desk = Desk(
+            client,
+            self.defaults,
+            self._stiffness_presets,
+            self._dither_presets,
+            self.seat,
+            self._port,
+            self.send,
+        )
+        with self._lock:
+            self._desks[client.client_id] = desk
+
+    def _client_disconnected(self, client: viser.ClientHandle) -> None:
+        with self._lock:
+            self._desks.pop(client.client_id, None)
+        self.seat.release(client.client_id)
+
+    def desks(self) -> list[Desk]:
+        with self._lock:
+            return list(self._desks.values())
+
+    def _seat_changed(self, previous: int | None, new: int | None) -> None:
+        for desk in self.desks():
+            desk.seat_changed()
+            if desk.client_id == previous and new is not None:
+                desk.client.add_notification(
+                    "Control taken",
+                    f"{operator_name(new)} has control now; you are watching.",
+                    color="orange",
+                )
 
     # ------------------------------------------------------------- commands
     def _port(self) -> Pose | None:
@@ -121,27 +168,26 @@ class ConsoleApp:
             return None
         return np.asarray(state["port"]["position"]), np.asarray(state["port"]["quaternion"])
 
-    def send_ptwl(self) -> None:
-        assert self.panel is not None and self.view is not None
-        params = self.panel.ptwl_params()
-        port = self._port()
-        target = None
-        if port is not None:
-            target = ptwl_target(port, *self.panel.ptwl_values())
-        view = self.history.sent("ptwl", target)
-        self._commanded = view
-        self.view.show_commanded(target)  # at once: intent does not wait for the link
-        self._submit(view, "ptwl", params)
+    def send(self, desk: Desk, behavior: str, params: dict[str, Any]) -> None:
+        """Send from a desk: only the one holding control; the record says who sent it."""
+        assert self.view is not None
+        if not self.seat.holds(desk.client_id):
+            desk.client.add_notification(
+                "Not sent: you are watching", "Take control to send commands.", color="red"
+            )
+            return
+        sender = f"{desk.name} at console {self._host}:{self._front_port}"
+        target = desk.contemplated_target() if behavior == "ptwl" else None
+        view = self.history.sent(behavior, target, sender)
+        if behavior == "ptwl":
+            self._commanded = view
+            self.view.show_commanded(target)  # at once, as predicted: intent does not wait for the link
+        self._submit(view, behavior, params, sender)
 
-    def _send(self, behavior: str, params: dict[str, Any]) -> None:
-        self._submit(self.history.sent(behavior), behavior, params)
-
-    def _submit(self, view: CommandView, behavior: str, params: dict[str, Any]) -> None:
-        assert self.panel is not None
-        self.panel.show_command(view)
-        self._show_history()
+    def _submit(self, view: CommandView, behavior: str, params: dict[str, Any], sender: str) -> None:
+        self._show_command(view)
         try:
-            accepted = self.client.command(behavior, **params)
+            accepted = self.client.command(behavior, sender=sender, **params)
         except RobotError as err:
             self.history.refused(view, str(err.detail))
             self._notify("Command refused", str(err.detail), "red")
@@ -152,23 +198,31 @@ class ConsoleApp:
             self.history.accepted(view, accepted.id)
             for warning in accepted.warnings:
                 self._notify(f"#{accepted.id}: check the approach", warning, "orange")
-        if view.phase == "done" and view is self._commanded and self.view is not None:
-            self.view.show_commanded(None)
-        self.panel.show_command(self.history.latest())
-        self._show_history()
+        self._after_change(view)
 
-    def stop(self) -> None:
+    def stop(self, client: viser.ClientHandle | None = None) -> None:
+        """Anyone may stop. The bar shows it pending until the robot confirms, and a failure stays
+        on screen until a STOP gets through."""
+        assert self.bar is not None
+        who = operator_name(client.client_id) if client is not None else "console"
+        sent = time.strftime("%H:%M:%S")
+        self.bar.show_stop("pending", f"STOP sent by {who} at {sent}; waiting for the robot")
         try:
             result = self.client.stop()
-            self._notify("Stopped", f"aborted {result.aborted}, dropped {len(result.dropped)} queued", "gray")
         except (RobotError, httpx.HTTPError) as err:
-            self._notify("Stop not delivered", str(err), "red")
+            reason = str(err.detail) if isinstance(err, RobotError) else type(err).__name__
+            failed = f"STOP sent at {sent} NOT CONFIRMED ({reason}): the robot may still be moving"
+            self.bar.show_stop("failed", failed)
+            return
+        aborted = f"#{result.aborted}" if result.aborted is not None else "nothing running"
+        dropped = len(result.dropped)
+        self.bar.show_stop("confirmed", f"stopped (sent {sent}): aborted {aborted}, dropped {dropped} queued")
 
     def reset_scene(self) -> None:
-        assert self.panel is not None
-        seed = int(self.panel.seed.value) or None
+        assert self.board is not None
+        seed = int(self.board.seed.value) or None
         try:
-            self.client.reset_scene(str(self.panel.scene.value), seed)
+            self.client.reset_scene(str(self.board.scene.value), seed)
             self._reload_geometry()
         except (RobotError, httpx.HTTPError) as err:
             self._notify("Scene reset failed", str(err), "red")
@@ -182,122 +236,125 @@ class ConsoleApp:
 
     # ------------------------------------------------------------ telemetry
     def _on_state(self, state: dict[str, Any], arrived: float) -> None:
-        assert self.panel is not None and self.view is not None
+        assert self.board is not None and self.view is not None
         if self._closed:
             return
         with self._lock:
+            previous = self._state
             self._state = state
-            self._last_seq = state["seq"]
-            self._last_arrival = arrived
-            self._last_sent_at = state["sent_at"]
+            self._arrived = arrived
         self._check_instance(state["instance"])
+        if previous is not None and state["seq"] != previous["seq"] + 1:
+            self._reconcile_soon()  # messages were lost: an end event may be among them
         if state["scene"] != self.scene_name:
             self.scene_name = state["scene"]
             threading.Thread(target=self._reload_geometry, daemon=True).start()
-        age = arrived - state["sent_at"]
-        x, y, z = (1000.0 * v for v in state["port"]["position"])
-        text = (
-            f"robot state #{state['seq']} is <b>{age:.2f} s old</b> · port ({x:.1f}, {y:.1f}, {z:.1f}) mm"
-            f" · {self._link_text}{self._restart_note}"
-        )
         with self.server.atomic():
             self.view.update(state)
-            self._update_contemplated()
-            self.panel.show_status(text, state["seq"], arrived, age)
+        for desk in self.desks():
+            desk.update_contemplated()
         self._count += 1
         self._plot.append((state["sim_time"], *state["wrench"]))
         while self._plot and self._plot[-1][0] - self._plot[0][0] > self.defaults.plot_s:
-            self._plot.popleft()
+            self._plot.pop(0)
         if self._count % PLOT_EVERY == 0:
             data = np.array(self._plot).T
-            self.panel.force_plot.data = (data[0], data[1], data[2], data[3])
-            self.panel.torque_plot.data = (data[0], data[4], data[5], data[6])
+            self.board.force_plot.data = (data[0], data[1], data[2], data[3])
+            self.board.torque_plot.data = (data[0], data[4], data[5], data[6])
 
     def _on_command(self, message: dict[str, Any]) -> None:
-        assert self.panel is not None
         if self._closed:
             return
         self._check_instance(message["instance"])
         view, ended = self.history.event(message)
         if view is None:
             return
-        self.panel.show_command(view)
-        self._show_history()
+        self._after_change(view)
         if ended:
-            if view is self._commanded and self.view is not None:
-                self.view.show_commanded(None)  # the robot has reported it
-            peak = f"peak {view.peak_force or 0.0:.1f} N, {view.peak_torque or 0.0:.2f} N m"
-            self._notify(
-                f"{view.behavior.upper()} {view.label}: {view.exit}", peak, _notification_color(view.exit)
-            )
+            self._announce_end(view)
+
+    def _after_change(self, view: CommandView) -> None:
+        """Show a command's new state: its line, the history, and the commanded marker."""
+        if view is self._commanded and self.view is not None:
+            live = view.phase != "done" and view.target is not None
+            self.view.show_commanded(view.target if live else None, view.resolved)
+        self._show_command(view)
+
+    def _announce_end(self, view: CommandView) -> None:
+        peak = f"peak {view.peak_force or 0.0:.1f} N, {view.peak_torque or 0.0:.2f} N m"
+        self._notify(
+            f"{view.behavior.upper()} {view.label}: {view.exit}", peak, _notification_color(view.exit)
+        )
 
     def _check_instance(self, instance: str) -> None:
         """The robot restarted if its instance changed: say so, and show its cut-off commands lost."""
-        assert self.panel is not None
         lost = self.history.robot_instance(instance)
         if lost is None:
             return
-        self._restart_note = f" · <b>robot restarted</b> at {time.strftime('%H:%M:%S')}"
+        self._restart_note = f" · robot restarted at {time.strftime('%H:%M:%S')}"
         if any(v is self._commanded for v in lost) and self.view is not None:
             self.view.show_commanded(None)
         labels = ", ".join(f"{v.behavior.upper()} {v.label}" for v in lost) or "none"
         self._notify("Robot restarted", f"commands it had not finished are lost: {labels}", "red")
-        self.panel.show_command(self.history.latest())
-        self._show_history()
+        self._show_command(self.history.latest())
 
     def _on_link(self, text: str) -> None:
-        self._link_text = text
-        if self.panel is not None and text != "connected":
-            self.panel.show_status(f"<b>{text}</b>", None, None, None)
+        up = text == "connected"
+        was_up, self._link_up, self._link_text = self._link_up, up, text
+        if up and not was_up:
+            self._reconcile_soon()  # whatever happened while we were away, the robot's records say
 
-    def _poll_link_profile(self) -> None:
-        assert self.panel is not None
-        headers = {"Authorization": f"Bearer {self.token}"} if self.token else {}
-        while True:
-            try:
-                response = httpx.get(self.robot_url + "/_link/profile", headers=headers, timeout=2.0)
-                if response.status_code == 200:
-                    p = response.json()
-                    self.panel.link.content = (
-                        f"link: uplink {p['uplink']:g} s · downlink {p['downlink']:g} s · "
-                        f"round trip {p['uplink'] + p['downlink']:g} s (profile v{p['version']})"
-                    )
-                else:
-                    self.panel.link.content = "link: direct connection (no link proxy)"
-            except httpx.HTTPError as err:
-                self.panel.link.content = f"link: control API unreachable ({type(err).__name__})"
-            time.sleep(2.0)
+    def _on_link_profile(self, text: str) -> None:
+        if self.board is not None:
+            self.board.link.content = text
 
-    # -------------------------------------------------------- contemplated
-    def _fields_changed(self) -> None:
-        with self.server.atomic():
-            self._update_contemplated(move_gizmo=True)
+    def _reconcile_soon(self) -> None:
+        """Re-read the robot's records in the background (at most one re-read at a time)."""
+        if self._reconciling.acquire(blocking=False):
+            threading.Thread(target=self._reconcile, name="ptwl-reconcile", daemon=True).start()
 
-    def _update_contemplated(self, move_gizmo: bool = False) -> None:
-        assert self.panel is not None and self.view is not None
-        port = self._port()
-        target = ptwl_target(port, *self.panel.ptwl_values()) if port is not None else None
-        self.view.show_contemplated(target)
-        show = bool(self.panel.show_gizmo.value) and target is not None
-        appearing = show and not self.gizmo.visible
-        self.gizmo.visible = show
-        if show and target is not None and (move_gizmo or appearing):
-            self._syncing_gizmo = True
-            self.gizmo.position, self.gizmo.wxyz = target
-            self._syncing_gizmo = False
-
-    def _gizmo_moved(self) -> None:
-        assert self.panel is not None
-        port = self._port()
-        if self._syncing_gizmo or port is None:
+    def _reconcile(self) -> None:
+        try:
+            records = self.client.commands(limit=RECORDS_ON_RECONNECT)
+        except (RobotError, httpx.HTTPError):
+            return  # the next reconnect or gap tries again
+        finally:
+            self._reconciling.release()
+        if self._closed:
             return
-        target = (np.asarray(self.gizmo.position), np.asarray(self.gizmo.wxyz))
-        translation, rotation = displacement_to(port, target, str(self.panel.frame.value))
-        self.panel.set_ptwl_displacement(translation, rotation)
+        for view in self.history.reconcile([r.model_dump() for r in records]):
+            self._after_change(view)
+            self._announce_end(view)
+        if self._commanded is not None:
+            self._after_change(self._commanded)
+        self._show_command(self.history.latest())
 
     # -------------------------------------------------------------- display
+    def _bar_inputs(self) -> BarInputs:
+        with self._lock:
+            state, arrived = self._state, self._arrived
+        running = self.history.live()
+        shown = running[0] if running else self.history.latest()
+        command = f"{shown.behavior.upper()} {shown.label}: {shown.status}" if shown else "no command yet"
+        if shown is not None and shown.sender:
+            command += f" (by {shown.sender})"
+        if len(running) > 1:
+            command += f" · {len(running) - 1} more queued"
+        rtt = self.link_poller.rtt_s if self.link_poller is not None else 0.0
+        return BarInputs(state, arrived, self._link_up, self._link_text, rtt, command, self._restart_note)
+
+    def _on_level(self, level: Level, age: float | None) -> None:
+        if self.view is not None:
+            self.view.set_stale(level == "stale", "STALE: link down" if not self._link_up else "STALE")
+
+    def _show_command(self, view: CommandView | None) -> None:
+        if self.board is None:
+            return
+        self.board.show_command(view)
+        self._show_history()
+
     def _show_history(self) -> None:
-        assert self.panel is not None
+        assert self.board is not None
         counts = self.history.counts()
         ptwl = ", ".join(f"{k} {v}" for k, v in sorted(counts["ptwl"].items())) or "none"
         lines = [
@@ -305,24 +362,31 @@ class ConsoleApp:
             f"**Dither** {counts['dither']}",
             f"peak force {counts['peak_force']:.1f} N · peak torque {counts['peak_torque']:.2f} N m",
             "",
-            "| cmd | behavior | status | peak F [N] | peak τ [N m] | time [s] |",
-            "|---|---|---|---|---|---|",
+            "| cmd | behavior | status | by | peak F [N] | peak τ [N m] | time [s] |",
+            "|---|---|---|---|---|---|---|",
         ]
         for v in reversed(self.history.recent(8)):
             f = f"{v.peak_force:.1f}" if v.peak_force is not None else ""
             t = f"{v.peak_torque:.2f}" if v.peak_torque is not None else ""
             d = f"{v.duration:.2f}" if v.duration is not None else ""
-            lines.append(f"| {v.label} | {v.behavior} | {v.status} | {f} | {t} | {d} |")
-        self.panel.history.content = "\n".join(lines)
+            by = (v.sender or "script").split(" at console")[0]
+            lines.append(f"| {v.label} | {v.behavior} | {v.status} | {by} | {f} | {t} | {d} |")
+        self.board.history.content = "\n".join(lines)
 
     def _notify(self, title: str, body: str, color: NotificationColor) -> None:
         for client in self.server.get_clients().values():
             client.add_notification(title, body, auto_close_seconds=6.0, color=color)
 
+    def threads_running(self) -> list[str]:
+        """The console's own threads still alive (all stop in close())."""
+        parts = [("status bar", self.bar), ("telemetry", self.feed), ("link poller", self.link_poller)]
+        return [name for name, part in parts if part is not None and part.running]
+
     def close(self) -> None:
         self._closed = True
-        if self.feed is not None:
-            self.feed.stop()
+        for part in (self.bar, self.feed, self.link_poller):
+            if part is not None:
+                part.close()
         self.front_door.close()
         self.server.stop()
         self.client.close()

@@ -6,9 +6,12 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from websockets.exceptions import ConnectionClosed, InvalidStatus
+
 from server.client import RobotClient
 
 RECONNECT_S = 1.0
+RECEIVE_TIMEOUT_S = 0.5  # how often a quiet feed checks whether it should stop
 
 
 class TelemetryFeed:
@@ -31,14 +34,25 @@ class TelemetryFeed:
     def start(self) -> None:
         self._thread.start()
 
-    def stop(self) -> None:
+    def close(self) -> None:
+        """Stop reading; the thread ends within one receive timeout."""
         self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout=RECEIVE_TIMEOUT_S + RECONNECT_S + 1.0)
+
+    @property
+    def running(self) -> bool:
+        return self._thread.is_alive()
 
     def _run(self) -> None:
         while not self._stop.is_set():
             try:
-                for message in self._client.telemetry(open_timeout=5.0):
+                for message in self._client.telemetry(open_timeout=5.0, idle_s=RECEIVE_TIMEOUT_S):
                     arrived = time.time()
+                    if self._stop.is_set():
+                        return
+                    if message["type"] == "idle":
+                        continue
                     if not self.connected:
                         self.connected = True
                         self._on_link("connected")
@@ -46,13 +60,34 @@ class TelemetryFeed:
                         self._on_state(message, arrived)
                     elif message.get("type") == "command":
                         self._on_command(message)
-                    if self._stop.is_set():
-                        return
                 reason = "the robot closed the telemetry stream"
-            except Exception as err:  # any failure of the link: say so, then retry
-                reason = f"{type(err).__name__}: {err}"[:160]
+            except Exception as err:  # any failure of the link: say so in plain words, then retry
+                reason = plain_reason(err)
             if self.connected:
                 self.reconnects += 1
             self.connected = False
-            self._on_link(f"telemetry lost ({reason}); reconnecting")
+            self._on_link(f"no telemetry: {reason}; reconnecting")
             self._stop.wait(RECONNECT_S)
+
+
+def plain_reason(err: BaseException) -> str:
+    """Why the telemetry stream failed, for an operator (not a Python exception name)."""
+    if isinstance(err, InvalidStatus):
+        code = err.response.status_code
+        if code in (401, 403):
+            return f"the link or robot refused the connection ({code}): check the access token"
+        return f"the link or robot answered {code} instead of opening the stream"
+    if isinstance(err, ConnectionClosed):
+        closed = err.rcvd.code if err.rcvd is not None else None
+        if closed == 1012:
+            return "the link or robot restarted"
+        if closed == 1001:
+            return "the link or robot is shutting down"
+        return "the connection to the link dropped"
+    if isinstance(err, ConnectionRefusedError):
+        return "nothing is listening at the link's address (is the link running?)"
+    if isinstance(err, TimeoutError):
+        return "the link did not answer in time"
+    if isinstance(err, OSError):
+        return f"the network failed ({err.strerror or 'no detail'})"
+    return f"unexpected error ({type(err).__name__})"

@@ -40,7 +40,9 @@ class CommandView:
     peak_torque: float | None = None
     duration: float | None = None
     detail: str = ""
-    target: Any = None  # (position, wxyz) for PTWL sent from here
+    target: Any = None  # (position, wxyz): predicted at Send, then as the robot resolved it
+    resolved: bool = False  # target is the goal the robot computed when the command started
+    sender: str | None = None
 
     @property
     def label(self) -> str:
@@ -64,9 +66,9 @@ class CommandHistory:
         self._next_local = 1
         self._instance: str | None = None
 
-    def sent(self, behavior: str, target: Any = None) -> CommandView:
+    def sent(self, behavior: str, target: Any = None, sender: str | None = None) -> CommandView:
         with self._lock:
-            view = CommandView(self._next_local, behavior, "sent", target=target)
+            view = CommandView(self._next_local, behavior, "sent", target=target, sender=sender)
             self._next_local += 1
             self._views.append(view)
             return view
@@ -99,13 +101,33 @@ class CommandHistory:
                 self._views.append(view)
                 self._by_id[command_id] = view
             was_done = view.phase == "done"
-            view.phase = message["status"]
-            view.exit = message.get("exit")
-            view.peak_force = message.get("peak_force")
-            view.peak_torque = message.get("peak_torque")
-            view.duration = message.get("duration")
-            view.detail = message.get("detail") or ""
+            _apply(view, message)
             return view, view.phase == "done" and not was_done
+
+    def reconcile(self, records: list[dict[str, Any]]) -> list[CommandView]:
+        """Take the robot's own records (GET /api/commands, after a reconnect or lost messages) as
+        the truth: every command shown here gets its real state, and live commands not shown yet
+        are added. Returns the views that ended here (their end event never arrived)."""
+        ended = []
+        with self._lock:
+            for record in records:
+                view = self._by_id.get(int(record["id"]))
+                if view is None:
+                    if record["status"] == "done":
+                        continue  # finished before this console knew of it: not news
+                    view = CommandView(0, record["type"], "queued", id=int(record["id"]))
+                    self._views.append(view)
+                    self._by_id[view.id] = view  # type: ignore[index]
+                was_done = view.phase == "done"
+                _apply(view, {**record, "behavior": record["type"]})
+                if view.phase == "done" and not was_done:
+                    ended.append(view)
+        return ended
+
+    def live(self) -> list[CommandView]:
+        """Commands this console shows as queued or running."""
+        with self._lock:
+            return [v for v in self._views if v.phase in ("queued", "running")]
 
     def robot_instance(self, instance: str) -> list[CommandView] | None:
         """Note which run of the robot is reporting; if it changed, the commands the old run had
@@ -147,3 +169,18 @@ class CommandHistory:
                 "peak_force": max(forces, default=0.0),
                 "peak_torque": max(torques, default=0.0),
             }
+
+
+def _apply(view: CommandView, message: dict[str, Any]) -> None:
+    """A robot record or event (the same fields) onto its view."""
+    view.phase = message["status"]
+    view.exit = message.get("exit")
+    view.peak_force = message.get("peak_force")
+    view.peak_torque = message.get("peak_torque")
+    view.duration = message.get("duration")
+    view.detail = message.get("detail") or ""
+    view.sender = message.get("sender") or view.sender
+    goal = message.get("goal")
+    if goal is not None:
+        view.target = (goal["position"], goal["quaternion"])
+        view.resolved = True

@@ -1,4 +1,7 @@
-"""Trimesh meshes from the server's scene geometry: one mesh per body, geoms merged, coloured."""
+"""Trimesh meshes from the server's scene geometry: per body, one part per colour (so the view can
+grey them all out by recolouring, when the state is stale)."""
+
+from dataclasses import dataclass
 
 import numpy as np
 import trimesh
@@ -24,21 +27,28 @@ def geom_mesh(geom: GeomModel) -> trimesh.Trimesh | None:
     T_body_geom = trimesh.transformations.quaternion_matrix(geom.quat)  # w x y z
     T_body_geom[0:3, 3] = geom.pos
     mesh.apply_transform(T_body_geom)
-    rgba = (np.clip(np.array(geom.rgba), 0.0, 1.0) * 255).astype(np.uint8)
-    mesh.visual.vertex_colors = np.tile(rgba, (len(mesh.vertices), 1))
     return mesh
 
 
-def body_meshes(geometry: GeometryModel) -> dict[str, trimesh.Trimesh]:
-    """{body name: merged mesh in the body frame} for bodies that have something to draw."""
-    per_body: dict[str, list[trimesh.Trimesh]] = {}
+@dataclass(frozen=True)
+class MeshPart:
+    mesh: trimesh.Trimesh  # in the body frame
+    rgb: tuple[int, int, int]
+    opacity: float
+
+
+def body_parts(geometry: GeometryModel) -> dict[str, list[MeshPart]]:
+    """{body name: its geoms merged per colour, in the body frame} for bodies with something to draw."""
+    grouped: dict[str, dict[tuple[int, ...], list[trimesh.Trimesh]]] = {}
     for geom in geometry.geoms:
         part = geom_mesh(geom)
         if part is not None:
-            per_body.setdefault(geom.body, []).append(part)
-    merged: dict[str, trimesh.Trimesh] = {}
-    for body, parts in per_body.items():
-        mesh = trimesh.util.concatenate(parts)
-        assert isinstance(mesh, trimesh.Trimesh)
-        merged[body] = mesh
-    return merged
+            rgba = tuple(int(c) for c in np.clip(np.array(geom.rgba), 0.0, 1.0) * 255)
+            grouped.setdefault(geom.body, {}).setdefault(rgba, []).append(part)
+    out: dict[str, list[MeshPart]] = {}
+    for body, by_color in grouped.items():
+        for rgba, meshes in by_color.items():
+            mesh = trimesh.util.concatenate(meshes)
+            assert isinstance(mesh, trimesh.Trimesh)
+            out.setdefault(body, []).append(MeshPart(mesh, (rgba[0], rgba[1], rgba[2]), rgba[3] / 255))
+    return out

@@ -14,24 +14,25 @@ import viser
 from web.defaults import ConsoleDefaults
 
 AXES = ("x", "y", "z", "rx", "ry", "rz")
+FORM_ORDER = 10.0  # each browser's own form sits above the shared board (order 100+)
 
 
 class Panel:
+    """One browser's own form: every operator types into fields nobody else sees."""
+
     def __init__(
         self,
-        server: viser.ViserServer,
+        gui: viser.GuiApi,
         defaults: ConsoleDefaults,
         stiffness_presets: list[str],
         dither_presets: dict[str, dict[str, Any]],
-        scenes: list[str],
-        scene: str,
     ) -> None:
-        gui = server.gui
         self.dither_presets = dither_presets
-        gui.configure_theme(control_width="large", dark_mode=False)
-        self.status = gui.add_html(_status_html("connecting...", None, None, None))
-
-        tabs = gui.add_tab_group()
+        self.control = gui.add_html(_control_html(False, None), order=FORM_ORDER)
+        self.take_control = gui.add_button(
+            "Take control", color="teal", hint="become the one operator who can send", order=FORM_ORDER + 0.1
+        )
+        tabs = gui.add_tab_group(order=FORM_ORDER + 0.2)
         d = defaults.ptwl
         with tabs.add_tab("PTWL"):
             self.translation = gui.add_vector3("Translation [mm]", tuple(d["translation_mm"]), step=0.1)
@@ -52,13 +53,13 @@ class Panel:
             )
             self.watchdog = gui.add_number("Watchdog [s]", d["watchdog_s"], min=0.01, max=600.0, step=0.5)
             self.show_gizmo = gui.add_checkbox("Drag target in 3D", False)
-            self.send_ptwl = gui.add_button("Send cmd", color="blue")
+            self.send_ptwl = gui.add_button("Send cmd", color="blue", disabled=True)
         with tabs.add_tab("RWE"):
             self.rwe_axes = {a: gui.add_checkbox(a, a in defaults.rwe["axes"]) for a in AXES}
             self.rwe_duration = gui.add_number(
                 "RWE duration [s]", defaults.rwe["duration_s"], min=0.01, max=600.0
             )
-            self.send_rwe = gui.add_button("Send RWE", color="blue")
+            self.send_rwe = gui.add_button("Send RWE", color="blue", disabled=True)
         with tabs.add_tab("Dither"):
             names = list(dither_presets)
             first = defaults.dither_preset if defaults.dither_preset in names else names[0]
@@ -68,29 +69,28 @@ class Panel:
             self.dither_frequency = gui.add_number("Frequency [Hz]", 1.0, min=0.01, max=10.0, step=0.1)
             self.dither_travel = gui.add_number("Travel [mm]", 10.0, min=0.0, max=1000.0, step=0.5)
             self.dither_duration = gui.add_number("Dither duration [s]", 5.0, min=0.01, max=600.0, step=0.5)
-            self.send_dither = gui.add_button("Send dither", color="blue")
+            self.send_dither = gui.add_button("Send dither", color="blue", disabled=True)
             self.dither_preset.on_update(lambda _: self.fill_dither_fields())
             self.fill_dither_fields()
 
         initial = defaults.stiffness_preset if defaults.stiffness_preset in stiffness_presets else None
         self.stiffness = gui.add_dropdown(
-            "Stiffness preset", stiffness_presets, initial_value=initial or stiffness_presets[0]
+            "Stiffness preset",
+            stiffness_presets,
+            initial_value=initial or stiffness_presets[0],
+            order=FORM_ORDER + 0.3,
         )
-        self.stop = gui.add_button(
-            "STOP", color="red", hint="abort the running command, drop the queue, hold"
-        )
-        self.command_status = gui.add_html(_command_html(None))
 
-        with gui.add_folder("Force / torque", expand_by_default=True):
-            self.force_plot = _xyz_plot(gui, "f", "N")
-            self.torque_plot = _xyz_plot(gui, "t", "N m")
-        with gui.add_folder("Commands", expand_by_default=True):
-            self.history = gui.add_markdown("No commands yet.")
-        with gui.add_folder("Scene and link", expand_by_default=False):
-            self.scene = gui.add_dropdown("Scene", scenes, initial_value=scene)
-            self.seed = gui.add_number("Seed (0: nominal)", 0, min=0, step=1)
-            self.reset_scene = gui.add_button("Reset scene")
-            self.link = gui.add_markdown("link: unknown")
+    @property
+    def send_buttons(self) -> tuple[Any, ...]:
+        return (self.send_ptwl, self.send_rwe, self.send_dither)
+
+    def show_control(self, mine: bool, holder: str | None) -> None:
+        """Enable sending only for the client that holds control; say who does."""
+        for button in self.send_buttons:
+            button.disabled = not mine
+        self.take_control.visible = not mine
+        self.control.content = _control_html(mine, holder)
 
     # ------------------------------------------------------------ requests
     def ptwl_values(self) -> tuple[np.ndarray, np.ndarray, str]:
@@ -152,49 +152,20 @@ class Panel:
             "duration": float(self.dither_duration.value),
         }
 
-    # ------------------------------------------------------------- display
-    def show_status(self, text: str, seq: int | None, arrived: float | None, age: float | None) -> None:
-        self.status.content = _status_html(text, seq, arrived, age)
-
-    def show_command(self, view: Any) -> None:
-        self.command_status.content = _command_html(view)
-
-
-def _xyz_plot(gui: Any, symbol: str, unit: str) -> Any:
-    """A time plot of x, y, z components (red, green, blue), empty until telemetry arrives."""
-    empty = np.zeros(1)
-    series = [{"label": "t [s]"}] + [
-        {"label": f"{symbol}{axis} [{unit}]", "stroke": color}
-        for axis, color in zip("xyz", ("#e03131", "#2f9e44", "#1971c2"), strict=True)
-    ]
-    return gui.add_uplot((empty,) * 4, tuple(series), scales={"x": {"time": False}}, aspect=2.5)
-
 
 def _set(handle: Any, value: Any) -> None:
-    """Assign a GUI input's value (viser syncs it to every browser)."""
+    """Assign a GUI input's value (a per-client handle: only this browser sees it)."""
     handle.value = value
 
 
-def _status_html(text: str, seq: int | None, arrived: float | None, age: float | None) -> str:
-    # data-* attributes let tests and the console benchmark read what the browser shows.
-    attrs = f'data-seq="{seq if seq is not None else ""}" data-arrived="{arrived if arrived else ""}"'
-    attrs += f' data-age="{age if age is not None else ""}"'
-    return f'<div id="ptwl-telemetry" {attrs} style="font-size:0.85em;padding:4px 0">{text}</div>'
-
-
-def _command_html(view: Any) -> str:
-    if view is None:
-        return '<div id="ptwl-command" data-status="" style="padding:4px 0">No command yet.</div>'
-    extra = f" — {view.detail}" if view.detail else ""
-    target = ""
-    if view.target is not None and view.phase != "done":
-        x, y, z = (1000.0 * float(v) for v in view.target[0])
-        target = (
-            '<div id="ptwl-commanded" style="font-weight:400">'
-            f"commanded target ({x:.1f}, {y:.1f}, {z:.1f}) mm</div>"
-        )
+def _control_html(mine: bool, holder: str | None) -> str:
+    if mine:
+        text, color = "You have control: your commands go to the robot.", "#2f9e44"
+    elif holder:
+        text, color = f"Watching: <b>{holder}</b> has control. Your fields are your own.", "#868e96"
+    else:
+        text, color = "Watching: nobody has control. Take it to send.", "#868e96"
     return (
-        f'<div id="ptwl-command" data-status="{view.status}" data-id="{view.id or ""}" '
-        f'style="padding:4px 8px;border-left:6px solid {view.color};font-weight:600">'
-        f"{view.behavior.upper()} {view.label}: {view.status}{extra}{target}</div>"
+        f'<div id="ptwl-control" data-mine="{int(mine)}" data-holder="{holder or ""}" '
+        f'style="padding:4px 8px;border-left:6px solid {color}">{text}</div>'
     )

@@ -1,22 +1,25 @@
 """The 3D scene: the robot and fixtures from the server's geometry, and the operator's markers.
 
-Owns its viser handles (like viser's own ViserUrdf). Markers, after the two papers:
+Owns its viser handles (like viser's own ViserUrdf). Shared by every browser; each browser's
+own contemplated target lives on its desk. Markers, after the two papers:
 - port axes (where the robot is, delayed) and the attractor's axes (paper 1, Fig. 3c);
-- a yellow ghost of the *contemplated* PTWL target, following the fields as they are typed;
-- a red marker for the *commanded* target, from Send until the robot reports the command done;
-- an arrow for the measured wrench's force.
+- the *commanded* target, from Send until the robot reports the command done: an outline while it
+  is only predicted (a relative command resolves against the port where it starts), solid red once
+  the robot has said where it resolved it;
+- an arrow for the measured wrench's force;
+- grey robot with a STALE label when the state on screen can no longer be trusted.
 """
 
 import numpy as np
 import viser
 
 from server.models import GeometryModel
-from web.meshes import body_meshes
+from web.meshes import MeshPart, body_parts
 from web.targets import Pose
 
 MOVE_EPSILON = 1e-5  # [m] and quaternion units: below this a pose is not re-sent
-YELLOW = (250, 204, 21)
 RED = (224, 49, 49)
+STALE_GREY = (150, 150, 150)
 FORCE_COLOR = (230, 119, 0)
 
 
@@ -25,7 +28,8 @@ class RobotView:
         self.server = server
         self.arrow_m_per_n = arrow_m_per_n
         self._bodies: dict[str, viser.FrameHandle] = {}
-        self._meshes: list[object] = []
+        self._meshes: list[tuple[viser.MeshHandle, MeshPart]] = []
+        self.stale = False
         self._sent: dict[str, np.ndarray] = {}
         scene = server.scene
         scene.set_up_direction("+z")
@@ -39,10 +43,6 @@ class RobotView:
             origin_color=(255, 80, 80),
         )
         scene.add_label("/attractor/label", "attractor", position=(0.0, 0.0, 0.012))
-        self.contemplated = scene.add_frame(
-            "/contemplated", axes_length=0.04, axes_radius=0.0015, origin_radius=0.007, origin_color=YELLOW
-        )
-        scene.add_icosphere("/contemplated/ghost", radius=0.012, color=YELLOW, opacity=0.35)
         self.commanded = scene.add_frame(
             "/commanded",
             axes_length=0.04,
@@ -52,6 +52,14 @@ class RobotView:
             visible=False,
         )
         scene.add_label("/commanded/label", "commanded", position=(0.0, 0.0, -0.02))
+        self.predicted = scene.add_frame("/predicted", show_axes=False, visible=False)
+        scene.add_icosphere("/predicted/outline", radius=0.012, color=RED, wireframe=True)
+        scene.add_label(
+            "/predicted/label", "commanded: relative to port at start", position=(0.0, 0.0, -0.02)
+        )
+        self.stale_label = scene.add_label(
+            "/stale", "STALE", position=(0.0, 0.0, 0.9), font_screen_scale=2.0, visible=False
+        )
         self.wrench = scene.add_arrows(
             "/wrench",
             np.zeros((1, 2, 3)),
@@ -64,19 +72,27 @@ class RobotView:
     # -------------------------------------------------------------- geometry
     def load(self, geometry: GeometryModel) -> None:
         """(Re)build the bodies for a scene."""
-        for handle in [*self._meshes, *self._bodies.values()]:
-            handle.remove()  # type: ignore[attr-defined]
+        for handle in [*(m for m, _ in self._meshes), *self._bodies.values()]:
+            handle.remove()
         self._meshes, self._bodies = [], {}
         self._sent.clear()
-        meshes = body_meshes(geometry)
+        parts = body_parts(geometry)
         for name, body in geometry.bodies.items():
-            if name not in meshes:
+            if name not in parts:
                 continue
             node = "/robot/" + name.replace("/", "_")
             pose = np.asarray(body.pose, dtype=float)
             frame = self.server.scene.add_frame(node, show_axes=False, position=pose[0:3], wxyz=pose[3:7])
             self._bodies[name] = frame
-            self._meshes.append(self.server.scene.add_mesh_trimesh(node + "/mesh", meshes[name]))
+            for i, part in enumerate(parts[name]):
+                handle = self.server.scene.add_mesh_simple(
+                    f"{node}/mesh{i}",
+                    np.asarray(part.mesh.vertices, dtype=np.float32),
+                    np.asarray(part.mesh.faces, dtype=np.uint32),
+                    color=STALE_GREY if self.stale else part.rgb,
+                    opacity=part.opacity if part.opacity < 1.0 else None,
+                )
+                self._meshes.append((handle, part))
 
     # ------------------------------------------------------------ telemetry
     def update(self, state: dict) -> None:
@@ -109,12 +125,20 @@ class RobotView:
             handle.position = pose[0:3]
             handle.wxyz = pose[3:7]
 
-    def show_contemplated(self, target: Pose | None) -> None:
-        self.contemplated.visible = target is not None
+    def show_commanded(self, target: Pose | None, resolved: bool = False) -> None:
+        """The commanded target: solid where the robot resolved it, an outline where it is only
+        predicted from the delayed port; hidden for None."""
+        marker = self.commanded if resolved else self.predicted
+        other = self.predicted if resolved else self.commanded
+        other.visible = False
+        marker.visible = target is not None
         if target is not None:
-            self.contemplated.position, self.contemplated.wxyz = target
+            marker.position, marker.wxyz = np.asarray(target[0]), np.asarray(target[1])
 
-    def show_commanded(self, target: Pose | None) -> None:
-        self.commanded.visible = target is not None
-        if target is not None:
-            self.commanded.position, self.commanded.wxyz = target
+    def set_stale(self, stale: bool, label: str = "STALE") -> None:
+        """Grey the robot out (and say so) while its state cannot be trusted; colour it back after."""
+        self.stale = stale
+        self.stale_label.text = label
+        self.stale_label.visible = stale
+        for handle, part in self._meshes:
+            handle.color = STALE_GREY if stale else part.rgb

@@ -1,0 +1,87 @@
+"""One browser's desk: its own form, its own contemplated target and gizmo, and its place in the
+control seat. What it sends goes through the console's shared `send` (one path for every desk)."""
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import viser
+
+from web.defaults import ConsoleDefaults
+from web.panel import Panel
+from web.seat import ControlSeat, operator_name
+from web.targets import Pose, displacement_to, ptwl_target
+
+YELLOW = (250, 204, 21)
+SendFn = Callable[["Desk", str, dict[str, Any]], None]
+
+
+class Desk:
+    def __init__(
+        self,
+        client: viser.ClientHandle,
+        defaults: ConsoleDefaults,
+        stiffness_presets: list[str],
+        dither_presets: dict[str, dict[str, Any]],
+        seat: ControlSeat,
+        port: Callable[[], Pose | None],
+        send: SendFn,
+    ) -> None:
+        self.client = client
+        self.name = operator_name(client.client_id) or ""
+        self._seat = seat
+        self._port = port
+        self._syncing_gizmo = False
+        self.panel = Panel(client.gui, defaults, stiffness_presets, dither_presets)
+        scene = client.scene
+        self.contemplated = scene.add_frame(
+            "/contemplated", axes_length=0.04, axes_radius=0.0015, origin_radius=0.007, origin_color=YELLOW
+        )
+        scene.add_icosphere("/contemplated/ghost", radius=0.012, color=YELLOW, opacity=0.35)
+        self.gizmo = scene.add_transform_controls("/gizmo", scale=0.08, visible=False)
+        panel = self.panel
+        panel.take_control.on_click(lambda _: seat.take(client.client_id))
+        panel.send_ptwl.on_click(lambda _: send(self, "ptwl", panel.ptwl_params()))
+        panel.send_rwe.on_click(lambda _: send(self, "rwe", panel.rwe_params()))
+        panel.send_dither.on_click(lambda _: send(self, "dither", panel.dither_params()))
+        for field in (panel.translation, panel.rotation, panel.frame, panel.show_gizmo):
+            field.on_update(lambda _: self.fields_changed())
+        self.gizmo.on_update(lambda _: self._gizmo_moved())
+        self.seat_changed()
+
+    @property
+    def client_id(self) -> int:
+        return self.client.client_id
+
+    def seat_changed(self) -> None:
+        holder = self._seat.holder
+        self.panel.show_control(holder == self.client_id, operator_name(holder))
+
+    def contemplated_target(self) -> Pose | None:
+        port = self._port()
+        return ptwl_target(port, *self.panel.ptwl_values()) if port is not None else None
+
+    def fields_changed(self) -> None:
+        with self.client.atomic():
+            self.update_contemplated(move_gizmo=True)
+
+    def update_contemplated(self, move_gizmo: bool = False) -> None:
+        target = self.contemplated_target()
+        self.contemplated.visible = target is not None
+        if target is not None:
+            self.contemplated.position, self.contemplated.wxyz = target
+        show = bool(self.panel.show_gizmo.value) and target is not None
+        appearing = show and not self.gizmo.visible
+        self.gizmo.visible = show
+        if show and target is not None and (move_gizmo or appearing):
+            self._syncing_gizmo = True
+            self.gizmo.position, self.gizmo.wxyz = target
+            self._syncing_gizmo = False
+
+    def _gizmo_moved(self) -> None:
+        port = self._port()
+        if self._syncing_gizmo or port is None:
+            return
+        target = (np.asarray(self.gizmo.position), np.asarray(self.gizmo.wxyz))
+        translation, rotation = displacement_to(port, target, str(self.panel.frame.value))
+        self.panel.set_ptwl_displacement(translation, rotation)

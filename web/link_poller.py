@@ -1,0 +1,53 @@
+"""The link's own profile (GET /_link/profile, local to the proxy and never delayed), polled so
+the console knows the round trip it is working across; stoppable."""
+
+import threading
+from collections.abc import Callable
+from typing import Any
+
+import httpx
+
+POLL_S = 2.0
+
+
+class LinkPoller:
+    def __init__(self, robot_url: str, token: str | None, on_text: Callable[[str], None]) -> None:
+        self._url = robot_url + "/_link/profile"
+        self._headers = {"Authorization": f"Bearer {token}"} if token else {}
+        self._on_text = on_text
+        self.rtt_s = 0.0
+        self.profile: dict[str, Any] | None = None
+        self._closed = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="ptwl-link-profile", daemon=True)
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def close(self) -> None:
+        self._closed.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout=POLL_S + 1.0)
+
+    @property
+    def running(self) -> bool:
+        return self._thread.is_alive()
+
+    def _run(self) -> None:
+        while not self._closed.is_set():
+            self._on_text(self.poll())
+            self._closed.wait(POLL_S)
+
+    def poll(self) -> str:
+        try:
+            response = httpx.get(self._url, headers=self._headers, timeout=2.0)
+        except httpx.HTTPError as err:
+            return f"link: its control API does not answer ({type(err).__name__})"
+        if response.status_code != 200:
+            self.profile, self.rtt_s = None, 0.0
+            return "link: direct connection (no link proxy)"
+        p = self.profile = response.json()
+        self.rtt_s = float(p["uplink"]) + float(p["downlink"])
+        return (
+            f"link: uplink {p['uplink']:g} s · downlink {p['downlink']:g} s · "
+            f"round trip {self.rtt_s:g} s (profile v{p['version']})"
+        )

@@ -1,0 +1,178 @@
+"""The pinned status bar: how old the robot's state is, the link, the scene, the running command,
+the task's progress and STOP, in a panel of its own that never scrolls away.
+
+The age is recomputed by a ticker whether or not data arrives (teleoperation paper: awareness of
+delay): a blackout or a dead link shows as a growing age that turns amber, then red, never as a
+frozen "1.50 s old - connected".
+"""
+
+import html
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import viser
+
+TICK_S = 0.1  # the bar's refresh period: 10 updates/s whether or not telemetry arrives
+LATE_AFTER_RTT_S = 1.0  # amber: state older than the round trip plus this
+STALE_AFTER_RTT_S = 5.0  # red: older than the round trip plus this, or the link is down
+BAR_WIDTH_PX, BAR_HEIGHT_PX = 500, 215
+Level = Literal["fresh", "late", "stale"]
+LEVEL_COLORS = {"fresh": "#2f9e44", "late": "#f08c00", "stale": "#e03131"}
+
+
+def staleness(age_s: float | None, rtt_s: float, link_up: bool) -> Level:
+    """How much to trust the robot's state on screen, from its age and the link's round trip."""
+    if not link_up or age_s is None or age_s > rtt_s + STALE_AFTER_RTT_S:
+        return "stale"
+    if age_s > rtt_s + LATE_AFTER_RTT_S:
+        return "late"
+    return "fresh"
+
+
+@dataclass(frozen=True)
+class BarInputs:
+    """What the bar shows, read once per tick from the console."""
+
+    state: dict[str, Any] | None  # the latest telemetry state
+    arrived: float | None  # [s] Unix time it arrived
+    link_up: bool
+    link_text: str  # "connected" or why not, in plain words
+    rtt_s: float  # the link's configured round trip (0 without a link)
+    command: str  # the running or latest command, one line
+    note: str  # e.g. "robot restarted at 12:00:01"
+
+
+@dataclass(frozen=True)
+class StopState:
+    phase: Literal["idle", "pending", "confirmed", "failed"] = "idle"
+    text: str = ""
+
+
+class StatusBar:
+    def __init__(
+        self,
+        gui: viser.GuiApi,
+        inputs: Callable[[], BarInputs],
+        on_level: Callable[[Level, float | None], None],
+    ) -> None:
+        self._inputs = inputs
+        self._on_level = on_level
+        self._stop_state = StopState()
+        self._lock = threading.Lock()
+        self.panel = gui.add_panel()
+        with self.panel.add_tab("Robot status"):
+            self.html = gui.add_html(self._render(inputs(), time.time()))
+            self.stop = gui.add_button(
+                "STOP", color="red", hint="abort the running command, drop the queue, hold (anyone may stop)"
+            )
+            self.stop_html = gui.add_html(_stop_html(self._stop_state))
+        # Over the 3D view's top right, beside the docked control panel: it never scrolls away, and
+        # no dropdown of the control panel can cover STOP.
+        gui.main_panel.dock_right()
+        self.panel.float(x=-12, y=12, width=BAR_WIDTH_PX, height=BAR_HEIGHT_PX)
+        self.ticks = 0
+        self._closed = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="ptwl-status-bar", daemon=True)
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def close(self) -> None:
+        self._closed.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout=2.0)
+
+    @property
+    def running(self) -> bool:
+        return self._thread.is_alive()
+
+    def show_stop(self, phase: Literal["idle", "pending", "confirmed", "failed"], text: str) -> None:
+        """STOP's own state: pending until the robot confirms; a failure stays until a STOP works."""
+        with self._lock:
+            self._stop_state = StopState(phase, text)
+            self.stop_html.content = _stop_html(self._stop_state)
+
+    def _run(self) -> None:
+        level: Level | None = None
+        while not self._closed.wait(TICK_S):
+            inputs = self._inputs()
+            now = time.time()
+            self.html.content = self._render(inputs, now)
+            new_level = staleness(_age(inputs, now), inputs.rtt_s, inputs.link_up)
+            if new_level != level:
+                level = new_level
+                self._on_level(level, _age(inputs, now))
+            self.ticks += 1
+
+    def _render(self, inputs: BarInputs, now: float) -> str:
+        age = _age(inputs, now)
+        level = staleness(age, inputs.rtt_s, inputs.link_up)
+        color = LEVEL_COLORS[level]
+        state = inputs.state
+        seq = state["seq"] if state else ""
+        if state is None:
+            robot = "no robot state yet"
+        else:
+            x, y, z = (1000.0 * v for v in state["port"]["position"])
+            robot = (
+                f"robot state #{seq} is <b>{age:.2f} s old</b> · port ({x:.1f}, {y:.1f}, {z:.1f}) mm"
+                f" · scene <b>{html.escape(state['scene'])}</b>"
+            )
+        stale = " · <b>STALE</b>: the robot may have moved since" if level == "stale" else ""
+        link = html.escape(inputs.link_text)
+        rtt = f"link round trip {inputs.rtt_s:g} s · {link}"
+        attrs = (
+            f'data-seq="{seq}" data-arrived="{inputs.arrived or ""}" data-age="{"" if age is None else age}"'
+            f' data-level="{level}" data-link="{int(inputs.link_up)}" data-rtt="{inputs.rtt_s}"'
+        )
+        return (
+            f'<div id="ptwl-bar" style="border-left:8px solid {color};padding:2px 8px;font-size:0.85em">'
+            f'<div id="ptwl-telemetry" {attrs}>{robot}{stale}</div>'
+            f'<div style="color:{color}">{rtt}{html.escape(inputs.note)}</div>'
+            f'<div id="ptwl-running">{html.escape(inputs.command)}</div>'
+            f"{_task_html(state.get('task') if state else None)}</div>"
+        )
+
+
+def _age(inputs: BarInputs, now: float) -> float | None:
+    """[s] how old the state is now: from when the robot sent it, counting on while nothing comes."""
+    if inputs.state is None:
+        return None
+    return now - float(inputs.state["sent_at"])
+
+
+def _task_html(task: dict[str, Any] | None) -> str:
+    if not task:
+        return '<div id="ptwl-task" data-success="" data-progress="">task: unknown</div>'
+    progress, target, unit = task["progress"], task["target"], task["unit"]
+    shown = "—" if progress is None else f"{progress:.1f}".replace("-0.0", "0.0")
+    fraction = 0.0 if progress is None or target == 0 else max(0.0, min(1.0, progress / target))
+    badge = (
+        '<span style="background:#2f9e44;color:white;padding:0 6px;border-radius:4px">SUCCESS</span>'
+        if task["success"]
+        else '<span style="color:#868e96">not yet</span>'
+    )
+    return (
+        f'<div id="ptwl-task" data-success="{int(task["success"])}" data-progress="{progress}" '
+        f'data-target="{target}" title="{html.escape(task["predicate"])}">'
+        f"task: {shown} / {target:g} {html.escape(unit)} {badge}"
+        f'<div style="height:6px;background:#e9ecef;border-radius:3px">'
+        f'<div style="height:6px;width:{100 * fraction:.0f}%;background:#1971c2;border-radius:3px"></div>'
+        "</div></div>"
+    )
+
+
+def _stop_html(stop: StopState) -> str:
+    styles = {
+        "idle": "color:#868e96",
+        "pending": "color:white;background:#f08c00;font-weight:700",
+        "confirmed": "color:#2f9e44;font-weight:600",
+        "failed": "color:white;background:#e03131;font-weight:700",
+    }
+    return (
+        f'<div id="ptwl-stop" data-phase="{stop.phase}" style="padding:2px 6px;{styles[stop.phase]}">'
+        f"{html.escape(stop.text)}</div>"
+    )
