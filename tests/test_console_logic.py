@@ -2,17 +2,27 @@
 
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pytest
+import viser
 import viser.transforms as tf
+import websockets.sync.client
+from websockets.typing import Subprotocol
 
 from robot_sim.behaviors.ptwl import ptwl_goal
 from robot_sim.params import PtwlParams
+from server.client import RobotClient
 from server.launcher import ServerProcess, free_port, running_proxy
 from web.app import ConsoleApp
+from web.desk import Desk
 from web.history import CommandHistory
+from web.status_bar import staleness
 from web.targets import displacement_to, ptwl_target
 
 PORT_POSE = (np.array([0.378, 0.0, 0.27]), np.array([0.0, 0.0, 1.0, 0.0]))  # tool z down
@@ -120,41 +130,112 @@ def console(server: ServerProcess) -> Iterator[ConsoleApp]:
 
 
 def wait_for_state(app: ConsoleApp) -> None:
-    import time
-
     deadline = time.monotonic() + 10
     while app._port() is None and time.monotonic() < deadline:
         time.sleep(0.05)
     assert app._port() is not None
 
 
+@dataclass
+class StubClient:
+    """Stands in for a browser's viser ClientHandle (viser counts a socket as a client only after
+    the page's first camera message): the desk gets the server's GUI and scene, which is enough
+    for its logic; real browsers' separate fields are tested in test_console_browser.py."""
+
+    server: viser.ViserServer
+    client_id: int
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def gui(self) -> viser.GuiApi:
+        return self.server.gui
+
+    @property
+    def scene(self) -> viser.SceneApi:
+        return self.server.scene
+
+    def atomic(self) -> Any:
+        return self.server.atomic()
+
+    def add_notification(self, title: str, body: str, **_: Any) -> None:
+        self.notes.append(title)
+
+
+_next_stub = iter(range(10_000, 20_000))
+
+
+@contextmanager
+def viser_client(app: ConsoleApp) -> Iterator[Desk]:
+    """A desk for a new browser-less client, removed (as on disconnect) afterwards."""
+    client = StubClient(app.server, next(_next_stub))
+    app._client_connected(client)  # type: ignore[arg-type]
+    try:
+        yield next(d for d in app.desks() if d.client_id == client.client_id)
+    finally:
+        app._client_disconnected(client)  # type: ignore[arg-type]
+
+
 def test_fields_move_the_contemplated_ghost_and_the_gizmo(console: ConsoleApp) -> None:
     wait_for_state(console)
-    panel = console.panel
-    assert panel is not None and console.view is not None
-    panel.show_gizmo.value = True
-    panel.frame.value = "base"
-    panel.translation.value = (20.0, -10.0, 5.0)  # mm
-    console._fields_changed()
-    port = console._port()
-    assert port is not None
-    np.testing.assert_allclose(console.gizmo.position, port[0] + [0.020, -0.010, 0.005], atol=2e-4)
-    np.testing.assert_allclose(console.view.contemplated.position, console.gizmo.position, atol=1e-9)
-    assert console.gizmo.visible
+    with viser_client(console) as desk:
+        panel = desk.panel
+        panel.show_gizmo.value = True
+        panel.frame.value = "base"
+        panel.translation.value = (20.0, -10.0, 5.0)  # mm
+        desk.fields_changed()
+        port = console._port()
+        assert port is not None
+        np.testing.assert_allclose(desk.gizmo.position, port[0] + [0.020, -0.010, 0.005], atol=2e-4)
+        np.testing.assert_allclose(desk.contemplated.position, desk.gizmo.position, atol=1e-9)
+        assert desk.gizmo.visible
 
 
 def test_dragging_the_gizmo_fills_the_fields(console: ConsoleApp) -> None:
     wait_for_state(console)
-    panel = console.panel
-    assert panel is not None
-    panel.frame.value = "base"
-    port = console._port()
-    assert port is not None
-    console.gizmo.position = port[0] + np.array([0.0, 0.03, -0.01])
-    console.gizmo.wxyz = (tf.SO3.from_z_radians(0.2) @ tf.SO3(port[1])).wxyz
-    console._gizmo_moved()
-    np.testing.assert_allclose(panel.translation.value, (0.0, 30.0, -10.0), atol=0.2)
-    np.testing.assert_allclose(panel.rotation.value, (0.0, 0.0, np.degrees(0.2)), atol=0.2)
+    with viser_client(console) as desk:
+        panel = desk.panel
+        panel.frame.value = "base"
+        port = console._port()
+        assert port is not None
+        desk.gizmo.position = port[0] + np.array([0.0, 0.03, -0.01])
+        desk.gizmo.wxyz = (tf.SO3.from_z_radians(0.2) @ tf.SO3(port[1])).wxyz
+        desk._gizmo_moved()
+        np.testing.assert_allclose(panel.translation.value, (0.0, 30.0, -10.0), atol=0.2)
+        np.testing.assert_allclose(panel.rotation.value, (0.0, 0.0, np.degrees(0.2)), atol=0.2)
+
+
+def test_only_the_seat_holder_sends_and_the_record_says_who(
+    console: ConsoleApp, server: ServerProcess
+) -> None:
+    wait_for_state(console)
+    with viser_client(console) as b, viser_client(console) as c:
+        assert all(button.disabled for button in (*b.panel.send_buttons, *c.panel.send_buttons))
+        console.seat.take(c.client_id)
+        assert not any(button.disabled for button in c.panel.send_buttons)
+        assert all(button.disabled for button in b.panel.send_buttons)
+        with RobotClient(server.url) as robot:
+            before = len(robot.commands(limit=1000))
+            console.send(b, "rwe", b.panel.rwe_params())  # B is watching: nothing goes out
+            assert len(robot.commands(limit=1000)) == before
+            assert b.client.notes == ["Not sent: you are watching"]  # type: ignore[attr-defined]
+            console.send(c, "rwe", c.panel.rwe_params())
+            sent = robot.commands(limit=1)[0]
+            assert sent.sender is not None and sent.sender.startswith(f"operator {c.client_id} at console")
+        console.seat.take(b.client_id)  # a supervisor takes over
+        assert console.seat.holder == b.client_id and all(x.disabled for x in c.panel.send_buttons)
+    assert console.seat.holder is None  # released when its browser went away
+
+
+def test_close_stops_every_thread(server: ServerProcess) -> None:
+    with running_proxy(server.url) as link:
+        app = ConsoleApp(link.url, port=free_port())
+        app.connect(timeout=30.0)
+        wait_for_state(app)
+        assert set(app.threads_running()) == {"status bar", "telemetry", "link poller"}
+        started = time.monotonic()
+        app.close()
+        assert app.threads_running() == []
+        assert time.monotonic() - started < 5.0
 
 
 def test_console_refuses_a_non_loopback_bind() -> None:
@@ -169,10 +250,6 @@ def test_console_refuses_a_non_loopback_bind() -> None:
 
 def first_message_or_close(url: str, headers: dict[str, str] | None = None) -> str:
     """'message' if the viser socket sent anything, else how it ended."""
-    import viser
-    import websockets.sync.client
-    from websockets.typing import Subprotocol
-
     protocol = [Subprotocol(f"viser-v{viser.__version__}")]
     try:
         with websockets.sync.client.connect(url, additional_headers=headers, subprotocols=protocol) as ws:
@@ -192,3 +269,41 @@ def test_viser_own_port_refuses_a_socket_that_skipped_the_front_door(console: Co
     assert first_message_or_close(inner, forged) == "closed 1011"
     # Through the front door the same socket gets the panel, even with a forged mark of its own.
     assert first_message_or_close(console.url.replace("http://", "ws://"), forged) == "message"
+
+
+@pytest.mark.parametrize(
+    ("age_s", "rtt_s", "link_up", "level"),
+    [
+        (0.5, 0.0, True, "fresh"),
+        (1.01, 0.0, True, "late"),
+        (3.9, 3.0, True, "fresh"),  # a 3 s round trip: 3.9 s old is as fresh as it gets
+        (4.1, 3.0, True, "late"),
+        (7.9, 3.0, True, "late"),
+        (8.1, 3.0, True, "stale"),
+        (0.1, 0.0, False, "stale"),  # the link is down: nothing on screen is current
+        (None, 0.0, True, "stale"),
+    ],
+)
+def test_staleness_levels_follow_the_round_trip(
+    age_s: float | None, rtt_s: float, link_up: bool, level: str
+) -> None:
+    assert staleness(age_s, rtt_s, link_up) == level
+
+
+def test_reconcile_ends_a_command_whose_end_event_was_lost() -> None:
+    history = CommandHistory()
+    mine = history.sent("ptwl")
+    history.accepted(mine, 11)
+    history.event({"id": 11, "behavior": "ptwl", "status": "running"})
+    goal = {"position": [0.1, 0.2, 0.3], "quaternion": [1.0, 0.0, 0.0, 0.0]}
+    records = [
+        {"id": 5, "type": "rwe", "status": "done", "exit": "completed"},  # before our time: not news
+        {"id": 11, "type": "ptwl", "status": "done", "exit": "goal_reached", "peak_force": 1.5, "goal": goal},
+        {"id": 12, "type": "dither", "status": "queued", "sender": "script"},  # someone else's, live
+    ]
+    ended = history.reconcile(records)
+    assert ended == [mine] and mine.status == "goal_reached" and mine.peak_force == 1.5
+    assert mine.resolved and mine.target == (goal["position"], goal["quaternion"])
+    assert [v.id for v in history.recent()] == [11, 12]
+    assert [v.id for v in history.live()] == [12] and history.live()[0].sender == "script"
+    assert history.reconcile(records) == []  # ended once, announced once

@@ -45,7 +45,11 @@ def test_the_running_event_carries_the_goal(server: ServerProcess, robot: RobotC
         goal = None
         for _ in range(2000):
             message = json.loads(ws.recv(timeout=5))
-            if message["type"] == "command" and message["id"] == accepted.id and message["status"] == "running":
+            if (
+                message["type"] == "command"
+                and message["id"] == accepted.id
+                and message["status"] == "running"
+            ):
                 goal = message["goal"]
                 break
     assert goal is not None and len(goal["position"]) == 3 and len(goal["quaternion"]) == 4
@@ -62,7 +66,9 @@ def test_each_command_records_who_sent_it(robot: RobotClient) -> None:
 
 
 @pytest.mark.parametrize("bad", ["", "x" * 65, "tab\there", "caf\u00e9"])
-def test_a_bad_sender_is_refused_naming_the_header(server: ServerProcess, robot: RobotClient, bad: str) -> None:
+def test_a_bad_sender_is_refused_naming_the_header(
+    server: ServerProcess, robot: RobotClient, bad: str
+) -> None:
     before = len(robot.commands(limit=1000))
     response = httpx.post(
         server.url + "/api/commands",

@@ -180,12 +180,11 @@ class ConsoleApp:
         target = desk.contemplated_target() if behavior == "ptwl" else None
         view = self.history.sent(behavior, target, sender)
         if behavior == "ptwl":
-            self._commanded = view
-            self.view.show_commanded(target)  # at once, as predicted: intent does not wait for the link
+            self._commanded = view  # shown at once, as predicted: intent does not wait for the link
         self._submit(view, behavior, params, sender)
 
     def _submit(self, view: CommandView, behavior: str, params: dict[str, Any], sender: str) -> None:
-        self._show_command(view)
+        self._after_change(view)
         try:
             accepted = self.client.command(behavior, sender=sender, **params)
         except RobotError as err:
@@ -275,9 +274,10 @@ class ConsoleApp:
 
     def _after_change(self, view: CommandView) -> None:
         """Show a command's new state: its line, the history, and the commanded marker."""
-        if view is self._commanded and self.view is not None:
+        if view is self._commanded and self.view is not None and self.board is not None:
             live = view.phase != "done" and view.target is not None
             self.view.show_commanded(view.target if live else None, view.resolved)
+            self.board.show_commanded(view)
         self._show_command(view)
 
     def _announce_end(self, view: CommandView) -> None:
@@ -292,8 +292,9 @@ class ConsoleApp:
         if lost is None:
             return
         self._restart_note = f" · robot restarted at {time.strftime('%H:%M:%S')}"
-        if any(v is self._commanded for v in lost) and self.view is not None:
+        if any(v is self._commanded for v in lost) and self.view is not None and self.board is not None:
             self.view.show_commanded(None)
+            self.board.show_commanded(None)
         labels = ", ".join(f"{v.behavior.upper()} {v.label}" for v in lost) or "none"
         self._notify("Robot restarted", f"commands it had not finished are lost: {labels}", "red")
         self._show_command(self.history.latest())

@@ -19,6 +19,16 @@ TICK_S = 0.1  # the bar's refresh period: 10 updates/s whether or not telemetry 
 LATE_AFTER_RTT_S = 1.0  # amber: state older than the round trip plus this
 STALE_AFTER_RTT_S = 5.0  # red: older than the round trip plus this, or the link is down
 BAR_WIDTH_PX, BAR_HEIGHT_PX = 500, 215
+PAGE_DEAD_AFTER_S = 2.5  # no bar update for this long: the console or the page's socket is gone
+# A page cannot tick when the console that feeds it is dead, so the page itself keeps time: every
+# update re-creates this banner, restarting its hidden CSS countdown; if updates stop, it appears.
+DEAD_MAN_HTML = (
+    "<style>@keyframes ptwl-dead { to { visibility: visible; max-height: 4em; } }</style>"
+    '<div id="ptwl-dead" style="visibility:hidden;max-height:0;overflow:hidden;'
+    f"animation:ptwl-dead 0s linear {PAGE_DEAD_AFTER_S}s forwards;"
+    'background:#e03131;color:white;font-weight:700;padding:2px 6px">'
+    "CONSOLE NOT RESPONDING: nothing on this page is current</div>"
+)
 Level = Literal["fresh", "late", "stale"]
 LEVEL_COLORS = {"fresh": "#2f9e44", "late": "#f08c00", "stale": "#e03131"}
 
@@ -130,6 +140,7 @@ class StatusBar:
         )
         return (
             f'<div id="ptwl-bar" style="border-left:8px solid {color};padding:2px 8px;font-size:0.85em">'
+            f"{DEAD_MAN_HTML}"
             f'<div id="ptwl-telemetry" {attrs}>{robot}{stale}</div>'
             f'<div style="color:{color}">{rtt}{html.escape(inputs.note)}</div>'
             f'<div id="ptwl-running">{html.escape(inputs.command)}</div>'

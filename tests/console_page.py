@@ -1,0 +1,83 @@
+"""Reading and driving the console in a real browser (Playwright pages on Debian's Chromium).
+
+The 3D scene is WebGL, which the DOM cannot see, so the console mirrors what it draws in its
+status lines (data-* attributes and text), updated in the same batch as the scene; these read them.
+"""
+
+import re
+
+import httpx
+
+from server.launcher import ServerProcess
+
+PORT_TEXT = re.compile(r"port \((-?[\d.]+), (-?[\d.]+), (-?[\d.]+)\) mm")
+
+
+def open_console(browser: object, url: str, control: bool = True, viewport: tuple[int, int] = (1500, 950)):  # type: ignore[no-untyped-def]
+    """A page on the console; with `control`, it takes control (one commander at a time)."""
+    page = browser.new_page(viewport={"width": viewport[0], "height": viewport[1]})  # type: ignore[attr-defined]
+    page.goto(url)
+    page.get_by_role("button", name="Send cmd").wait_for(timeout=60_000)
+    page.wait_for_function("document.querySelector('#ptwl-telemetry')?.dataset.seq > 0", timeout=30_000)
+    if control:
+        take_control(page)
+    return page
+
+
+def take_control(page) -> None:  # type: ignore[no-untyped-def]
+    page.get_by_role("button", name="Take control").click()
+    page.wait_for_function("document.querySelector('#ptwl-control')?.dataset.mine === '1'", timeout=10_000)
+
+
+def inputs_for(page, label: str):  # type: ignore[no-untyped-def]
+    return page.locator(f"xpath=//*[normalize-space(text())='{label}']/ancestor::*[.//input][1]//input")
+
+
+def set_fields(page, label: str, *values: float) -> None:  # type: ignore[no-untyped-def]
+    boxes = inputs_for(page, label)
+    for i, value in enumerate(values):
+        boxes.nth(i).fill(str(value))
+        boxes.nth(i).press("Tab")
+
+
+def command_status(page) -> str:  # type: ignore[no-untyped-def]
+    return page.locator("#ptwl-command").get_attribute("data-status") or ""
+
+
+def command_id(page) -> str:  # type: ignore[no-untyped-def]
+    return page.locator("#ptwl-command").get_attribute("data-id") or ""
+
+
+def wait_status(page, wanted: str, timeout_s: float = 30.0, after: str | None = None) -> None:  # type: ignore[no-untyped-def]
+    """Wait until the command line shows `wanted` for a command other than `after` (the id shown
+    before sending: the line is shared, so it may still show an earlier command's exit)."""
+    newer = f" && el.dataset.id !== '{after}'" if after is not None else ""
+    page.wait_for_function(
+        f"(() => {{ const el = document.querySelector('#ptwl-command');"
+        f" return el && el.dataset.status === '{wanted}'{newer}; }})()",
+        timeout=timeout_s * 1000,
+    )
+
+
+def send(page, button: str) -> str:  # type: ignore[no-untyped-def]
+    """Click a send button; the id the command line showed before (for wait_status(after=...))."""
+    before = command_id(page)
+    page.get_by_role("button", name=button).click()
+    return before
+
+
+def port_mm(page) -> tuple[float, float, float]:  # type: ignore[no-untyped-def]
+    match = PORT_TEXT.search(page.locator("#ptwl-telemetry").inner_text())
+    assert match, page.locator("#ptwl-telemetry").inner_text()
+    return float(match[1]), float(match[2]), float(match[3])
+
+
+def reset(link: ServerProcess) -> None:
+    httpx.post(link.url + "/api/scene", json={"name": "free_space"}).raise_for_status()
+    httpx.put(link.url + "/_link/profile", json={"uplink": 0.0, "downlink": 0.0}).raise_for_status()
+
+
+def wait_text(page, text: str, timeout_s: float) -> None:  # type: ignore[no-untyped-def]
+    page.wait_for_function(
+        f"document.querySelector('#ptwl-bar')?.innerText.includes({text!r})", timeout=timeout_s * 1000
+    )
