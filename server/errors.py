@@ -36,12 +36,22 @@ def _message(err: dict[str, Any]) -> str:
     return msg
 
 
-def validation_response(errors: list[dict[str, Any]]) -> JSONResponse:
-    items = [
+def field_errors(errors: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Pydantic errors as the API reports them: `{"field", "message", "type"}` each (also used by
+    the console to check a command before sending it)."""
+    return [
         {"field": _field(tuple(e.get("loc", ()))), "message": _message(e), "type": e.get("type")}
         for e in errors
     ]
-    detail = "; ".join(f"{i['field']}: {i['message']}" for i in items)
+
+
+def error_detail(items: list[dict[str, Any]]) -> str:
+    return "; ".join(f"{i['field']}: {i['message']}" for i in items)
+
+
+def validation_response(errors: list[dict[str, Any]]) -> JSONResponse:
+    items = field_errors(errors)
+    detail = error_detail(items)
     return JSONResponse({"detail": detail, "errors": items}, status_code=422)
 
 

@@ -100,6 +100,12 @@ class TaskProgressModel(BaseModel):
     unit: str = Field(description="unit of `progress` and `target`")
 
 
+class ActiveGainsModel(BaseModel):
+    stiffness: list[float] = Field(description="[N/m x3, N m/rad x3] diagonal K")
+    damping: list[float] = Field(description="[N s/m x3, N m s/rad x3] diagonal B")
+    frame: Literal["base", "tool"] = Field(description="the axes of the diagonal")
+
+
 class RobotStateModel(BaseModel):
     sim_time: float = Field(description="[s] simulation time since the scene was loaded")
     port: PoseModel = Field(description="port of interaction (tool frame), base frame")
@@ -116,6 +122,9 @@ class RobotStateModel(BaseModel):
     )
     bodies: dict[str, list[float]] = Field(
         default_factory=dict, description="moving bodies' poses [x y z (m), qw qx qy qz], base frame"
+    )
+    gains: ActiveGainsModel | None = Field(
+        None, description="the stiffness and damping in force now (the running command's, or the last)"
     )
     task: TaskProgressModel | None = Field(
         None, description="the scene's success predicate now (as GET /api/task, without `scene`)"

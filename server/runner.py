@@ -17,6 +17,7 @@ from typing import Any
 
 from robot_sim.behaviors import BehaviorReport, behavior_for
 from robot_sim.behaviors.base import Pose
+from robot_sim.gains import Gains
 from robot_sim.geometry import body_poses, moving_bodies
 from robot_sim.scenes import TaskProgress, get_scene
 from robot_sim.sim import Simulation
@@ -158,6 +159,7 @@ class SimRunner:
             "limited": state.limited,
             "bodies": body_poses(self.sim.model, self.sim.data, self._moving),
             "task": task_fields(self.sim.task()),
+            "gains": _gains_fields(self.sim.controller.gains),
         }
 
     def _publish_state(self) -> None:
@@ -167,6 +169,10 @@ class SimRunner:
         self._next_telemetry += self._period
         if self._next_telemetry < self.sim.time:  # fell behind (dropped backlog): no burst
             self._next_telemetry = self.sim.time + self._period
+
+
+def _gains_fields(gains: Gains) -> dict[str, Any]:
+    return {"stiffness": gains.stiffness.tolist(), "damping": gains.damping.tolist(), "frame": gains.frame}
 
 
 def task_fields(progress: TaskProgress) -> dict[str, Any]:

@@ -98,7 +98,7 @@ def test_a_faulted_command_is_a_valid_record_for_every_reader(server: ServerProc
 def test_non_finite_report_fields_become_null_with_a_reason(value: float) -> None:
     book = CommandBook(4, 10)
     record = book.submit(RweParams(duration=0.01))
-    book.start_next()
+    book.start_next(lambda record: None)
     real = Simulation("free_space").run_behavior(behavior_for(RweParams(duration=0.01)))
     poisoned = dataclasses.replace(real, final_wrench=(0.0, value, 0.0, 0.0, 0.0, 0.0), peak_force=value)
     book.finish(poisoned)

@@ -240,3 +240,39 @@ def test_a_stop_that_fails_stays_on_screen(browser) -> None:  # type: ignore[no-
         assert stop.get_attribute("data-phase") == "failed" and stop.is_visible()
         assert "NOT CONFIRMED" in stop.inner_text()
         page.close()
+
+
+def plot(page, key: str) -> str:  # type: ignore[no-untyped-def]
+    return page.locator("#ptwl-plot").get_attribute(f"data-{key}") or ""
+
+
+def test_plots_restart_with_the_scene_keep_a_minimum_range_and_mark_commands(browser, stack, calm) -> None:  # type: ignore[no-untyped-def]
+    """On main old samples stayed after a reset (an x axis of 0-250 s for ~220 s), 1e-17 N of
+    noise filled the plot, and nothing showed the thresholds or when commands ran."""
+    robot, _, console = stack
+    page = open_console(browser, console.url)
+    page.wait_for_function("Number(document.querySelector('#ptwl-plot')?.dataset.t1) > 3", timeout=15_000)
+    lo, hi = (float(v) for v in plot(page, "force-range").split(","))
+    assert lo <= -5.0 and hi >= 5.0  # at rest: at least +-5 N, not noise stretched to full height
+    assert plot(page, "threshold") == ""  # nothing running: no limit lines
+    marks_before = int(plot(page, "marks"))
+    set_fields(page, "Translation [mm]", 0, 0, -10)
+    set_fields(page, "Duration [s]", 2.0)
+    before = send(page, "Send cmd")
+    wait_status(page, "running", after=before)
+    page.wait_for_function(
+        "document.querySelector('#ptwl-plot')?.dataset.threshold === '20.0'", timeout=5_000
+    )
+    wait_status(page, "goal_reached", after=before)
+    page.wait_for_function(
+        f"Number(document.querySelector('#ptwl-plot')?.dataset.marks) === {marks_before + 2}", timeout=5_000
+    )
+    assert plot(page, "threshold") == ""
+    clears = int(plot(page, "clears"))
+    httpx.post(robot.url + "/api/scene", json={"name": "free_space"}).raise_for_status()
+    page.wait_for_function(
+        f"Number(document.querySelector('#ptwl-plot')?.dataset.clears) === {clears + 1}", timeout=10_000
+    )
+    t0 = float(plot(page, "t0"))
+    page.close()
+    assert t0 < 1.0  # the time axis starts again with the scene

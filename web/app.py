@@ -19,8 +19,10 @@ import httpx
 import numpy as np
 import viser
 
+from robot_sim.gains import Gains
 from server.client import RobotClient, RobotError
 from web.board import Board
+from web.checks import Check, check_command
 from web.defaults import load_defaults
 from web.desk import Desk
 from web.feed import TelemetryFeed
@@ -70,7 +72,6 @@ class ConsoleApp:
         self._link_text = "connecting"
         self._restart_note = ""
         self._commanded: CommandView | None = None
-        self._plot: list[tuple[float, ...]] = []
         self._count = 0
         self._reconciling = threading.Lock()
         self.scene_name = ""
@@ -108,12 +109,13 @@ class ConsoleApp:
                     time.sleep(1.0)
         waiting.remove()
         self._dither_presets = presets.pop("dither")
-        self._stiffness_presets = list(presets)
+        self._stiffness_presets = presets
         self.scene_name = geometry.scene
         self.view = RobotView(self.server, self.defaults.wrench_arrow_m_per_n)
         self.view.load(geometry)
         self.bar = StatusBar(self.server.gui, self._bar_inputs, self._on_level)
-        self.board = Board(self.server.gui, [s.name for s in scene_list], geometry.scene)
+        scene_names = [s.name for s in scene_list]
+        self.board = Board(self.server.gui, scene_names, geometry.scene, self.defaults.plot_s)
         self.bar.stop.on_click(lambda event: self.stop(event.client))
         self.board.reset_scene.on_click(lambda _: self.reset_scene())
         self.seat.on_change(self._seat_changed)
@@ -137,6 +139,7 @@ class ConsoleApp:
             self.seat,
             self._port,
             self.send,
+            self.check,
         )
         with self._lock:
             self._desks[client.client_id] = desk
@@ -167,6 +170,15 @@ class ConsoleApp:
         if state is None:
             return None
         return np.asarray(state["port"]["position"]), np.asarray(state["port"]["quaternion"])
+
+    def check(self, behavior: str, params: dict[str, Any]) -> Check:
+        """A request checked by the robot's rules against the state shown (gains and port now)."""
+        with self._lock:
+            state = self._state
+        now = state["gains"] if state else None
+        gains = Gains.of(now["stiffness"], now["damping"], now["frame"]) if now else None
+        q_world_port = np.asarray(state["port"]["quaternion"]) if state else None
+        return check_command(behavior, params, gains, q_world_port)
 
     def send(self, desk: Desk, behavior: str, params: dict[str, Any]) -> None:
         """Send from a desk: only the one holding control; the record says who sent it."""
@@ -248,29 +260,38 @@ class ConsoleApp:
         if state["scene"] != self.scene_name:
             self.scene_name = state["scene"]
             threading.Thread(target=self._reload_geometry, daemon=True).start()
+        if previous is None or state["gains"] != previous["gains"]:
+            self.board.show_gains(state["gains"])
         with self.server.atomic():
             self.view.update(state)
         for desk in self.desks():
             desk.update_contemplated()
         self._count += 1
-        self._plot.append((state["sim_time"], *state["wrench"]))
-        while self._plot and self._plot[-1][0] - self._plot[0][0] > self.defaults.plot_s:
-            self._plot.pop(0)
+        self.board.plots.add(state["sim_time"], state["wrench"])
         if self._count % PLOT_EVERY == 0:
-            data = np.array(self._plot).T
-            self.board.force_plot.data = (data[0], data[1], data[2], data[3])
-            self.board.torque_plot.data = (data[0], data[4], data[5], data[6])
+            self.board.plots.refresh()
 
     def _on_command(self, message: dict[str, Any]) -> None:
         if self._closed:
             return
         self._check_instance(message["instance"])
+        self._plot_event(message)
         view, ended = self.history.event(message)
         if view is None:
             return
         self._after_change(view)
         if ended:
             self._announce_end(view)
+
+    def _plot_event(self, message: dict[str, Any]) -> None:
+        """Mark starts and exits on the plots; draw the running command's thresholds."""
+        if self.board is None or message.get("started_at") is None:
+            return  # queued, or dropped before it ran
+        plots = self.board.plots
+        plots.mark()
+        params = message.get("params") or {}
+        running = message["status"] == "running" and "force_threshold" in params
+        plots.set_thresholds((params["force_threshold"], params["torque_threshold"]) if running else None)
 
     def _after_change(self, view: CommandView) -> None:
         """Show a command's new state: its line, the history, and the commanded marker."""

@@ -3,19 +3,21 @@ history with the paper's counts, and the scene and link controls."""
 
 from typing import Any
 
-import numpy as np
 import viser
+
+from web.panel import gains_html
+from web.plots import WrenchPlots
 
 BOARD_ORDER = 100.0  # below each browser's own form
 
 
 class Board:
-    def __init__(self, gui: viser.GuiApi, scenes: list[str], scene: str) -> None:
+    def __init__(self, gui: viser.GuiApi, scenes: list[str], scene: str, plot_window_s: float) -> None:
         self.command_status = gui.add_html(_command_html(None), order=BOARD_ORDER)
         self.commanded = gui.add_html(_commanded_html(None), order=BOARD_ORDER + 0.5)
+        self.gains = gui.add_html('<div id="ptwl-gains"></div>', order=BOARD_ORDER + 0.6)
         with gui.add_folder("Force / torque", expand_by_default=True, order=BOARD_ORDER + 1):
-            self.force_plot = _xyz_plot(gui, "f", "N")
-            self.torque_plot = _xyz_plot(gui, "t", "N m")
+            self.plots = WrenchPlots(gui, plot_window_s)
         with gui.add_folder("Commands", expand_by_default=True, order=BOARD_ORDER + 2):
             self.history = gui.add_markdown("No commands yet.")
         with gui.add_folder("Scene and link", expand_by_default=False, order=BOARD_ORDER + 3):
@@ -27,19 +29,18 @@ class Board:
     def show_command(self, view: Any) -> None:
         self.command_status.content = _command_html(view)
 
+    def show_gains(self, gains: dict[str, Any] | None) -> None:
+        """The stiffness and damping in force on the robot now (as its telemetry reports them)."""
+        if gains is None:
+            return
+        shown = gains_html(gains["stiffness"], gains["damping"], "ptwl-gains", f"{gains['frame']} axes")
+        self.gains.content = (
+            f"<div style='font-size:0.8em'>gains on the robot now ({gains['frame']} axes):</div>{shown}"
+        )
+
     def show_commanded(self, view: Any) -> None:
         """The commanded target the 3D marker shows (the last PTWL sent from this console)."""
         self.commanded.content = _commanded_html(view)
-
-
-def _xyz_plot(gui: Any, symbol: str, unit: str) -> Any:
-    """A time plot of x, y, z components (red, green, blue), empty until telemetry arrives."""
-    empty = np.zeros(1)
-    series = [{"label": "t [s]"}] + [
-        {"label": f"{symbol}{axis} [{unit}]", "stroke": color}
-        for axis, color in zip("xyz", ("#e03131", "#2f9e44", "#1971c2"), strict=True)
-    ]
-    return gui.add_uplot((empty,) * 4, tuple(series), scales={"x": {"time": False}}, aspect=2.5)
 
 
 def _command_html(view: Any) -> str:

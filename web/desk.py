@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 import viser
 
+from web.checks import Check
 from web.defaults import ConsoleDefaults
 from web.panel import Panel
 from web.seat import ControlSeat, operator_name
@@ -14,6 +15,7 @@ from web.targets import Pose, displacement_to, ptwl_target
 
 YELLOW = (250, 204, 21)
 SendFn = Callable[["Desk", str, dict[str, Any]], None]
+CheckFn = Callable[[str, dict[str, Any]], Check]
 
 
 class Desk:
@@ -21,11 +23,12 @@ class Desk:
         self,
         client: viser.ClientHandle,
         defaults: ConsoleDefaults,
-        stiffness_presets: list[str],
+        stiffness_presets: dict[str, dict[str, Any]],
         dither_presets: dict[str, dict[str, Any]],
         seat: ControlSeat,
         port: Callable[[], Pose | None],
         send: SendFn,
+        check: CheckFn,
     ) -> None:
         self.client = client
         self.name = operator_name(client.client_id) or ""
@@ -41,13 +44,19 @@ class Desk:
         self.gizmo = scene.add_transform_controls("/gizmo", scale=0.08, visible=False)
         panel = self.panel
         panel.take_control.on_click(lambda _: seat.take(client.client_id))
-        panel.send_ptwl.on_click(lambda _: send(self, "ptwl", panel.ptwl_params()))
-        panel.send_rwe.on_click(lambda _: send(self, "rwe", panel.rwe_params()))
-        panel.send_dither.on_click(lambda _: send(self, "dither", panel.dither_params()))
+        panel.send_ptwl.on_click(lambda _: send(self, "ptwl", self.params("ptwl")))
+        panel.send_rwe.on_click(lambda _: send(self, "rwe", self.params("rwe")))
+        panel.send_dither.on_click(lambda _: send(self, "dither", self.params("dither")))
         for field in (panel.translation, panel.rotation, panel.frame, panel.show_gizmo):
             field.on_update(lambda _: self.fields_changed())
+        for behavior in ("ptwl", "rwe", "dither"):
+            for field in panel.fields(behavior):
+                field.on_update(lambda _, b=behavior: self.recheck(b))
         self.gizmo.on_update(lambda _: self._gizmo_moved())
+        self._check = check
         self.seat_changed()
+        for behavior in ("ptwl", "rwe", "dither"):
+            self.recheck(behavior)
 
     @property
     def client_id(self) -> int:
@@ -56,6 +65,16 @@ class Desk:
     def seat_changed(self) -> None:
         holder = self._seat.holder
         self.panel.show_control(holder == self.client_id, operator_name(holder))
+
+    def params(self, behavior: str) -> dict[str, Any]:
+        panel = self.panel
+        return {"ptwl": panel.ptwl_params, "rwe": panel.rwe_params, "dither": panel.dither_params}[behavior]()
+
+    def recheck(self, behavior: str) -> None:
+        """Check the request as typed by the robot's own rules; say what they say, at once."""
+        result = self._check(behavior, self.params(behavior))
+        watchdog = getattr(result.params, "watchdog", None)
+        self.panel.show_check(behavior, result.errors, result.warnings, watchdog)
 
     def contemplated_target(self) -> Pose | None:
         port = self._port()

@@ -5,6 +5,7 @@ request bodies. The panel only builds widgets and reads them; what a click does 
 app, which keeps this file free of robot and link logic.
 """
 
+import html
 import math
 from typing import Any
 
@@ -14,6 +15,7 @@ import viser
 from web.defaults import ConsoleDefaults
 
 AXES = ("x", "y", "z", "rx", "ry", "rz")
+AMPLITUDE_LABELS = {"torsional": "Amplitude [deg]", "translational": "Amplitude (radius) [mm]"}
 FORM_ORDER = 10.0  # each browser's own form sits above the shared board (order 100+)
 
 
@@ -24,10 +26,13 @@ class Panel:
         self,
         gui: viser.GuiApi,
         defaults: ConsoleDefaults,
-        stiffness_presets: list[str],
+        stiffness_presets: dict[str, dict[str, Any]],
         dither_presets: dict[str, dict[str, Any]],
     ) -> None:
         self.dither_presets = dither_presets
+        self.stiffness_presets = stiffness_presets
+        self._mine = False
+        self._valid = {"ptwl": True, "rwe": True, "dither": True}
         self.control = gui.add_html(_control_html(False, None), order=FORM_ORDER)
         self.take_control = gui.add_button(
             "Take control", color="teal", hint="become the one operator who can send", order=FORM_ORDER + 0.1
@@ -51,46 +56,123 @@ class Panel:
             self.orientation_tolerance = gui.add_number(
                 "Orientation tolerance [deg]", d["orientation_tolerance_deg"], min=0.01, step=0.1
             )
-            self.watchdog = gui.add_number("Watchdog [s]", d["watchdog_s"], min=0.01, max=600.0, step=0.5)
+            self.watchdog_auto = gui.add_checkbox(
+                "Watchdog follows duration",
+                True,
+                hint="the robot's default: duration + 5 s; untick to set it",
+            )
+            self.watchdog = gui.add_number(
+                "Watchdog [s]", d["duration_s"] + 5.0, min=0.01, max=600.0, step=0.5, disabled=True
+            )
             self.show_gizmo = gui.add_checkbox("Drag target in 3D", False)
+            self.ptwl_check = gui.add_html(_check_html("ptwl", "", []))
             self.send_ptwl = gui.add_button("Send cmd", color="blue", disabled=True)
         with tabs.add_tab("RWE"):
             self.rwe_axes = {a: gui.add_checkbox(a, a in defaults.rwe["axes"]) for a in AXES}
             self.rwe_duration = gui.add_number(
                 "RWE duration [s]", defaults.rwe["duration_s"], min=0.01, max=600.0
             )
+            self.rwe_check = gui.add_html(_check_html("rwe", "", []))
             self.send_rwe = gui.add_button("Send RWE", color="blue", disabled=True)
         with tabs.add_tab("Dither"):
             names = list(dither_presets)
             first = defaults.dither_preset if defaults.dither_preset in names else names[0]
             self.dither_preset = gui.add_dropdown("Dither preset", names, initial_value=first)
+            self.dither_mode = gui.add_dropdown("Mode", ("torsional", "translational"))
+            self.dither_direction = gui.add_dropdown("Direction", ("push", "pull"))
             self.dither_axis = gui.add_vector3("Axis (tool frame)", (0.0, 0.0, 1.0), step=0.1)
-            self.dither_amplitude = gui.add_number("Amplitude [deg or mm]", 1.0, min=0.001, step=0.1)
+            self.dither_amplitude = gui.add_number(AMPLITUDE_LABELS["torsional"], 1.0, min=0.001, step=0.1)
             self.dither_frequency = gui.add_number("Frequency [Hz]", 1.0, min=0.01, max=10.0, step=0.1)
             self.dither_travel = gui.add_number("Travel [mm]", 10.0, min=0.0, max=1000.0, step=0.5)
             self.dither_duration = gui.add_number("Dither duration [s]", 5.0, min=0.01, max=600.0, step=0.5)
+            self.dither_force_threshold = gui.add_number("Dither force limit [N]", 30.0, min=0.1, step=0.5)
+            self.dither_torque_threshold = gui.add_number(
+                "Dither torque limit [N m]", 3.0, min=0.01, step=0.05
+            )
+            self.dither_check = gui.add_html(_check_html("dither", "", []))
             self.send_dither = gui.add_button("Send dither", color="blue", disabled=True)
             self.dither_preset.on_update(lambda _: self.fill_dither_fields())
+            self.dither_mode.on_update(lambda _: self._label_amplitude())
             self.fill_dither_fields()
 
         initial = defaults.stiffness_preset if defaults.stiffness_preset in stiffness_presets else None
         self.stiffness = gui.add_dropdown(
-            "Stiffness preset",
-            stiffness_presets,
-            initial_value=initial or stiffness_presets[0],
+            "Stiffness preset (PTWL)",
+            list(stiffness_presets),
+            initial_value=initial or next(iter(stiffness_presets)),
             order=FORM_ORDER + 0.3,
         )
+        self.stiffness_info = gui.add_html(self._stiffness_html(), order=FORM_ORDER + 0.4)
+        self.stiffness.on_update(lambda _: self._show_stiffness())
 
     @property
     def send_buttons(self) -> tuple[Any, ...]:
         return (self.send_ptwl, self.send_rwe, self.send_dither)
 
+    def fields(self, behavior: str) -> list[Any]:
+        """The inputs whose values make up a behavior's request."""
+        if behavior == "ptwl":
+            return [
+                self.translation,
+                self.rotation,
+                self.frame,
+                self.duration,
+                self.force_threshold,
+                self.torque_threshold,
+                self.position_tolerance,
+                self.orientation_tolerance,
+                self.watchdog_auto,
+                self.watchdog,
+                self.stiffness,
+            ]
+        if behavior == "rwe":
+            return [*self.rwe_axes.values(), self.rwe_duration]
+        return [
+            self.dither_preset,
+            self.dither_mode,
+            self.dither_direction,
+            self.dither_axis,
+            self.dither_amplitude,
+            self.dither_frequency,
+            self.dither_travel,
+            self.dither_duration,
+            self.dither_force_threshold,
+            self.dither_torque_threshold,
+        ]
+
     def show_control(self, mine: bool, holder: str | None) -> None:
         """Enable sending only for the client that holds control; say who does."""
-        for button in self.send_buttons:
-            button.disabled = not mine
+        self._mine = mine
+        self._refresh_buttons()
         self.take_control.visible = not mine
         self.control.content = _control_html(mine, holder)
+
+    def show_check(self, behavior: str, errors: str, warnings: list[str], watchdog_s: float | None) -> None:
+        """What the robot's own rules say of the request as typed; Send is off while it is invalid."""
+        self._valid[behavior] = not errors
+        {"ptwl": self.ptwl_check, "rwe": self.rwe_check, "dither": self.dither_check}[
+            behavior
+        ].content = _check_html(behavior, errors, warnings)
+        if behavior == "ptwl" and watchdog_s is not None and self.watchdog_auto.value:
+            _set(self.watchdog, round(watchdog_s, 3))
+        self.watchdog.disabled = bool(self.watchdog_auto.value)
+        self._refresh_buttons()
+
+    def _refresh_buttons(self) -> None:
+        for behavior, button in zip(("ptwl", "rwe", "dither"), self.send_buttons, strict=True):
+            button.disabled = not (self._mine and self._valid[behavior])
+
+    def _stiffness_html(self) -> str:
+        preset = self.stiffness_presets[str(self.stiffness.value)]
+        return gains_html(
+            preset["stiffness"], preset["damping"], "ptwl-preset", preset.get("description", "")
+        )
+
+    def _show_stiffness(self) -> None:
+        self.stiffness_info.content = self._stiffness_html()
+
+    def _label_amplitude(self) -> None:
+        self.dither_amplitude.label = AMPLITUDE_LABELS[str(self.dither_mode.value)]
 
     # ------------------------------------------------------------ requests
     def ptwl_values(self) -> tuple[np.ndarray, np.ndarray, str]:
@@ -112,7 +194,7 @@ class Panel:
             "torque_threshold": float(self.torque_threshold.value),
             "position_tolerance": float(self.position_tolerance.value) / 1000.0,
             "orientation_tolerance": math.radians(float(self.orientation_tolerance.value)),
-            "watchdog": float(self.watchdog.value),
+            **({} if self.watchdog_auto.value else {"watchdog": float(self.watchdog.value)}),
             "preset": str(self.stiffness.value),
         }
 
@@ -126,11 +208,12 @@ class Panel:
             "duration": float(self.rwe_duration.value),
         }
 
-    def _dither_is_torsional(self) -> bool:
-        return self.dither_presets[str(self.dither_preset.value)]["mode"] == "torsional"
-
     def fill_dither_fields(self) -> None:
+        """Every field of the chosen preset, in the units of its mode."""
         p = self.dither_presets[str(self.dither_preset.value)]
+        _set(self.dither_mode, p["mode"])
+        _set(self.dither_direction, p["direction"])
+        self._label_amplitude()
         _set(self.dither_axis, np.asarray(p["axis"], dtype=float))
         torsional = p["mode"] == "torsional"
         _set(
@@ -140,16 +223,23 @@ class Panel:
         _set(self.dither_frequency, p["frequency"])
         _set(self.dither_travel, round(p["travel"] * 1000.0, 3))
         _set(self.dither_duration, p["duration"])
+        _set(self.dither_force_threshold, p["force_threshold"])
+        _set(self.dither_torque_threshold, p["torque_threshold"])
 
     def dither_params(self) -> dict[str, Any]:
+        """Every field explicit (the preset's name is not sent: what is shown is what runs)."""
         amplitude = float(self.dither_amplitude.value)
+        torsional = self.dither_mode.value == "torsional"
         return {
-            "preset": str(self.dither_preset.value),
+            "mode": str(self.dither_mode.value),
+            "direction": str(self.dither_direction.value),
             "axis": list(self.dither_axis.value),
-            "amplitude": math.radians(amplitude) if self._dither_is_torsional() else amplitude / 1000.0,
+            "amplitude": math.radians(amplitude) if torsional else amplitude / 1000.0,
             "frequency": float(self.dither_frequency.value),
             "travel": float(self.dither_travel.value) / 1000.0,
             "duration": float(self.dither_duration.value),
+            "force_threshold": float(self.dither_force_threshold.value),
+            "torque_threshold": float(self.dither_torque_threshold.value),
         }
 
 
@@ -168,4 +258,38 @@ def _control_html(mine: bool, holder: str | None) -> str:
     return (
         f'<div id="ptwl-control" data-mine="{int(mine)}" data-holder="{holder or ""}" '
         f'style="padding:4px 8px;border-left:6px solid {color}">{text}</div>'
+    )
+
+
+def gains_html(stiffness: list[float], damping: list[float], element_id: str, title: str = "") -> str:
+    """K, B and the time constant tau = B/K per axis group (translation, rotation)."""
+    k, b = np.asarray(stiffness, dtype=float), np.asarray(damping, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tau = np.where(k > 0, b / k, np.inf)
+
+    def row(name: str, sl: slice, k_unit: str, b_unit: str) -> str:
+        ks = ", ".join(f"{v:g}" for v in k[sl])
+        bs = ", ".join(f"{v:g}" for v in b[sl])
+        taus = ", ".join("∞" if not np.isfinite(v) else f"{v:.2f}" for v in tau[sl])
+        return f"{name}: K ({ks}) {k_unit} · B ({bs}) {b_unit} · τ ({taus}) s"
+
+    data_k, data_b = ",".join(f"{v:g}" for v in k), ",".join(f"{v:g}" for v in b)
+    return (
+        f'<div id="{element_id}" data-k="{data_k}" data-b="{data_b}" '
+        f'title="{html.escape(title)}" style="font-size:0.8em;color:#495057;padding:0 4px">'
+        f"{row('translation', slice(0, 3), 'N/m', 'N s/m')}<br>"
+        f"{row('rotation', slice(3, 6), 'N m/rad', 'N m s/rad')}</div>"
+    )
+
+
+def _check_html(behavior: str, errors: str, warnings: list[str]) -> str:
+    if errors:
+        body, color = f"will be refused: {errors}", "#e03131"
+    elif warnings:
+        body, color = "accepted, but: " + " ".join(warnings), "#e8590c"
+    else:
+        body, color = "within the robot's limits", "#868e96"
+    return (
+        f'<div id="ptwl-check-{behavior}" data-valid="{int(not errors)}" data-warnings="{len(warnings)}" '
+        f'style="font-size:0.8em;color:{color};padding:0 4px">{html.escape(body)}</div>'
     )

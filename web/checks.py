@@ -1,0 +1,43 @@
+"""A command checked before Send, by the robot's own rules: the API's request models validate it
+(ranges, watchdog >= duration, stable gains, presets) and robot_sim.impact says whether the
+approach would overshoot its thresholds on contact. No rule is restated here; the robot still
+checks everything again when the command arrives."""
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from pydantic import TypeAdapter, ValidationError
+
+from robot_sim.behaviors import BehaviorParams
+from robot_sim.gains import Gains
+from robot_sim.impact import impact_warnings
+from robot_sim.params import PtwlParams
+from server.errors import error_detail, field_errors
+from server.models import Command
+
+_COMMAND: TypeAdapter[BehaviorParams] = TypeAdapter(Command)
+
+
+@dataclass(frozen=True)
+class Check:
+    errors: str = ""  # as the API's 422 would say it; empty when valid
+    warnings: list[str] = field(default_factory=list)
+    params: BehaviorParams | None = None  # as validated, defaults filled in
+
+    @property
+    def ok(self) -> bool:
+        return not self.errors
+
+
+def check_command(
+    behavior: str, params: dict[str, Any], gains_now: Gains | None, q_world_port: np.ndarray | None
+) -> Check:
+    try:
+        validated = _COMMAND.validate_python({"type": behavior, **params})
+    except ValidationError as err:
+        return Check(errors=error_detail(field_errors(list(err.errors()))))  # type: ignore[arg-type]
+    warnings: list[str] = []
+    if isinstance(validated, PtwlParams) and q_world_port is not None and gains_now is not None:
+        warnings = impact_warnings(validated, gains_now, q_world_port)
+    return Check(warnings=warnings, params=validated)
