@@ -276,3 +276,77 @@ def test_plots_restart_with_the_scene_keep_a_minimum_range_and_mark_commands(bro
     t0 = float(plot(page, "t0"))
     page.close()
     assert t0 < 1.0  # the time axis starts again with the scene
+
+
+def values(page, label: str) -> list[float]:  # type: ignore[no-untyped-def]
+    boxes = inputs_for(page, label)
+    return [float(boxes.nth(i).input_value()) for i in range(boxes.count())]
+
+
+def test_checks_before_send_and_defaults_that_do_not_bite(browser, stack, calm) -> None:  # type: ignore[no-untyped-def]
+    """On main: translation defaulted to (0, 0, 10) mm, the watchdog stayed 7 s so any duration
+    over 7 s was refused a round trip later, and limits were checked only by the robot."""
+    robot, _, console = stack
+    page = open_console(browser, console.url)
+    assert values(page, "Translation [mm]") == [0.0, 0.0, 0.0]
+    check = page.locator("#ptwl-check-ptwl")
+    # Out of range: said at once, in the API's words, and Send is off.
+    set_fields(page, "Force threshold [N]", 600)
+    page.wait_for_function("document.querySelector('#ptwl-check-ptwl')?.dataset.valid === '0'", timeout=5e3)
+    assert "force_threshold" in check.inner_text() and "500" in check.inner_text()
+    assert page.get_by_role("button", name="Send cmd").is_disabled()
+    set_fields(page, "Force threshold [N]", 20)
+    page.wait_for_function("document.querySelector('#ptwl-check-ptwl')?.dataset.valid === '1'", timeout=5e3)
+    assert page.get_by_role("button", name="Send cmd").is_enabled()
+    # A fast approach: the robot's impact rule, before Send.
+    set_fields(page, "Translation [mm]", 0, 0, -100)
+    set_fields(page, "Duration [s]", 0.5)
+    page.wait_for_function(
+        "document.querySelector('#ptwl-check-ptwl')?.dataset.warnings === '1'", timeout=5e3
+    )
+    assert "impact will pass it" in check.inner_text()
+    # The watchdog follows the duration: a 9 s move is accepted and runs.
+    set_fields(page, "Translation [mm]", 0, 0, -5)
+    set_fields(page, "Duration [s]", 9)
+    page.wait_for_timeout(1000)
+    assert values(page, "Watchdog [s]") == [14.0]  # shown as the robot will apply it
+    before = send(page, "Send cmd")
+    wait_status(page, "running", after=before)
+    with RobotClient(robot.url) as client:
+        record = client.commands(limit=1)[0]
+    assert record.params["duration"] == 9.0 and record.params["watchdog"] == 14.0
+    page.close()
+
+
+def test_every_dither_field_and_the_gains_are_shown(browser, stack, calm) -> None:  # type: ignore[no-untyped-def]
+    """On main the Dither tab hid its force limits, the preset's K, B, tau were never shown and
+    neither were the gains active on the robot."""
+    robot, _, console = stack
+    page = open_console(browser, console.url)
+    preset = page.locator("#ptwl-preset")
+    assert preset.get_attribute("data-k") == "2000,2000,2000,100,100,100"  # medium, from the robot
+    assert "τ (0.50, 0.50, 0.50) s" in preset.inner_text()
+    inputs_for(page, "Stiffness preset (PTWL)").first.click()
+    page.get_by_role("option", name="stiff").click()
+    page.wait_for_function(
+        "document.querySelector('#ptwl-preset')?.dataset.k !== '2000,2000,2000,100,100,100'"
+    )
+    stiff_k = page.locator("#ptwl-preset").get_attribute("data-k")
+    set_fields(page, "Translation [mm]", 0, 0, -5)
+    before = send(page, "Send cmd")
+    wait_status(page, "goal_reached", after=before)
+    page.wait_for_function(f"document.querySelector('#ptwl-gains')?.dataset.k === '{stiff_k}'", timeout=5e3)
+    page.get_by_role("tab", name="Dither").click()
+    inputs_for(page, "Dither preset").first.click()
+    page.get_by_role("option", name="translational_pull").click()
+    page.get_by_text("Amplitude (radius) [mm]").wait_for(timeout=5_000)
+    assert values(page, "Dither force limit [N]") == [40.0]
+    set_fields(page, "Dither force limit [N]", 25)
+    set_fields(page, "Travel [mm]", 3)
+    before = send(page, "Send dither")
+    wait_status(page, "goal_reached", after=before)
+    with RobotClient(robot.url) as client:
+        record = client.commands(limit=1)[0]
+    page.close()
+    assert record.params["force_threshold"] == 25.0 and record.params["mode"] == "translational"
+    assert record.params["direction"] == "pull" and record.params["travel"] == pytest.approx(0.003)
