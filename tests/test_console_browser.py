@@ -120,6 +120,7 @@ def test_two_second_round_trip_shows_intent_at_once_and_the_robot_later(browser,
     page.wait_for_function(
         "Number(document.querySelector('#ptwl-telemetry')?.dataset.age) > 0.9", timeout=10_000
     )
+    set_fields(page, "Translation [mm]", 0, 0, 10)  # tool z down: 10 mm down
     time.sleep(0.5)
     start = port_mm(page)
     before = send(page, "Send cmd")
@@ -172,7 +173,7 @@ def test_console_says_when_the_robot_restarts_and_reconnects(browser) -> None:  
         running_console(link.url) as console,
     ):
         page = open_console(browser, console.url)
-        set_fields(page, "Watchdog [s]", 40.0)
+        set_fields(page, "Translation [mm]", 0, 0, -30)
         set_fields(page, "Duration [s]", 30.0)
         previous = send(page, "Send cmd")
         wait_status(page, "running", timeout_s=15.0, after=previous)
