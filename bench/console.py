@@ -22,7 +22,7 @@ import zstandard
 from playwright.sync_api import sync_playwright
 
 from bench.server import cpu_seconds, percentile
-from server.launcher import running_console, running_proxy, running_server
+from ptwl.launcher import running_console, running_proxy, running_server
 from web.browser import launch
 
 WARM_UP_S = 8.0  # a fresh page first loads the scene and works off a few seconds of backlog

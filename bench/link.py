@@ -21,7 +21,7 @@ import websockets
 
 from latency.link import Link
 from latency.profile import LinkProfile
-from server.launcher import running_proxy, running_server
+from ptwl.launcher import running_proxy, running_server
 
 
 def percentile(values: list[float], q: float) -> float:

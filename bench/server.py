@@ -17,7 +17,7 @@ import time
 import httpx
 import websockets
 
-from server.launcher import ServerProcess, running_server
+from ptwl.launcher import ServiceProcess, running_server
 
 CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
 
@@ -34,7 +34,7 @@ def percentile(values: list[float], q: float) -> float:
     return ordered[min(len(ordered) - 1, round(q * (len(ordered) - 1)))]
 
 
-async def command_latency_ms(server: ServerProcess, n: int) -> list[float]:
+async def command_latency_ms(server: ServiceProcess, n: int) -> list[float]:
     ws_url = server.url.replace("http://", "ws://") + "/api/telemetry"
     latencies = []
     async with (
@@ -59,7 +59,7 @@ async def command_latency_ms(server: ServerProcess, n: int) -> list[float]:
     return latencies
 
 
-async def telemetry_rate(server: ServerProcess, clients: int, seconds: float) -> list[float]:
+async def telemetry_rate(server: ServiceProcess, clients: int, seconds: float) -> list[float]:
     ws_url = server.url.replace("http://", "ws://") + "/api/telemetry"
 
     async def one() -> float:

@@ -22,8 +22,8 @@ from typing import Any
 
 import httpx
 
+from ptwl.launcher import running_proxy, running_server
 from server.client import RobotClient
-from server.launcher import running_proxy, running_server
 
 WARM_UP = 500
 QUEUE_DEPTH = 32

@@ -118,6 +118,11 @@ class AccessPolicy:
         return None
 
 
+def bearer_header(token: str | None) -> dict[str, str]:
+    """The request header a client sends its token in (none without a token)."""
+    return {"Authorization": f"Bearer {token}"} if token else {}
+
+
 def bearer(header: str | None) -> str | None:
     if header and header.lower().startswith("bearer "):
         return header[7:].strip()

@@ -1,11 +1,10 @@
 """Named link profiles from config/links.toml, validated at load."""
 
-import os
 import tomllib
 from functools import cache
-from importlib import resources
 from pathlib import Path
 
+from ptwl_config import config_dir
 from pydantic import ValidationError
 
 from latency.profile import LinkProfile
@@ -16,9 +15,7 @@ class LinkConfigError(ValueError):
 
 
 def links_file() -> Path:
-    override = os.environ.get("PTWL_CONFIG_DIR")
-    base = Path(override) if override else Path(str(resources.files("ptwl_config")))
-    return base / "links.toml"
+    return config_dir() / "links.toml"
 
 
 def load_profiles(path: Path) -> dict[str, LinkProfile]:

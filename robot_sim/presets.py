@@ -5,28 +5,17 @@ preset that loads is a preset the API accepts. A bad file raises ConfigError nam
 the key and the problem.
 """
 
-import os
 import tomllib
 from dataclasses import dataclass
 from functools import cache
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from ptwl_config import config_dir
 from pydantic import ValidationError
 
 from robot_sim.errors import ConfigError, UnknownNameError
 from robot_sim.params import DitherParams, GainsSpec
-
-CONFIG_DIR_ENV = "PTWL_CONFIG_DIR"
-
-
-def config_dir() -> Path:
-    """config/ of this installation, or $PTWL_CONFIG_DIR."""
-    override = os.environ.get(CONFIG_DIR_ENV)
-    if override:
-        return Path(override)
-    return Path(str(resources.files("ptwl_config")))
 
 
 @dataclass(frozen=True)

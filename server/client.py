@@ -19,6 +19,7 @@ import httpx
 from websockets.exceptions import ConnectionClosedOK
 from websockets.sync.client import connect
 
+from guard.access import bearer_header
 from server.models import (
     SENDER_HEADER,
     CommandAccepted,
@@ -49,7 +50,7 @@ class RobotClient:
     ):
         self.base_url = base_url.rstrip("/")
         self.token = token
-        headers = {"Authorization": f"Bearer {token}"} if token else {}
+        headers = bearer_header(token)
         self._http = httpx.Client(base_url=self.base_url, headers=headers, timeout=timeout)
 
     # ------------------------------------------------------------------ plumbing
@@ -148,7 +149,7 @@ class RobotClient:
     def telemetry(self, open_timeout: float = 10.0, idle_s: float | None = None) -> Iterator[dict[str, Any]]:
         """State and command messages as they arrive; stops when the server closes. With `idle_s`,
         `{"type": "idle"}` comes whenever nothing arrived for that long (so a reader can stop)."""
-        headers = {"Authorization": f"Bearer {self.token}"} if self.token else None
+        headers = bearer_header(self.token) or None
         # Keepalive pings off: over a multi-second link they would time out; the age of the
         # telemetry (`sent_at`) is the liveness signal instead.
         with connect(

@@ -5,19 +5,19 @@ from collections.abc import Iterator
 
 import pytest
 
+from ptwl.launcher import ServiceProcess, running_server
 from server.client import RobotClient
-from server.launcher import ServerProcess, running_server
 from web.browser import chromium_available, launch
 
 
 @pytest.fixture(scope="module")
-def server() -> Iterator[ServerProcess]:
+def server() -> Iterator[ServiceProcess]:
     with running_server("--scene", "free_space", "--fault-injection") as srv:
         yield srv
 
 
 @pytest.fixture
-def robot(server: ServerProcess) -> Iterator[RobotClient]:
+def robot(server: ServiceProcess) -> Iterator[RobotClient]:
     """A client on a server reset to free_space with nothing queued."""
     with RobotClient(server.url) as client:
         client.reset_scene("free_space")

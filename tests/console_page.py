@@ -8,7 +8,7 @@ import re
 
 import httpx
 
-from server.launcher import ServerProcess
+from ptwl.launcher import ServiceProcess
 
 PORT_TEXT = re.compile(r"port \((-?[\d.]+), (-?[\d.]+), (-?[\d.]+)\) mm")
 
@@ -72,7 +72,7 @@ def port_mm(page) -> tuple[float, float, float]:  # type: ignore[no-untyped-def]
     return float(match[1]), float(match[2]), float(match[3])
 
 
-def reset(link: ServerProcess) -> None:
+def reset(link: ServiceProcess) -> None:
     httpx.post(link.url + "/api/scene", json={"name": "free_space"}).raise_for_status()
     httpx.put(link.url + "/_link/profile", json={"uplink": 0.0, "downlink": 0.0}).raise_for_status()
 

@@ -9,8 +9,8 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
 import pytest
 
+from ptwl.launcher import ServiceProcess, running_console, running_proxy, running_server
 from server.client import RobotClient
-from server.launcher import ServerProcess, running_console, running_proxy, running_server
 
 ATTACK_PAGE = """<!doctype html><html><body><script>
 window.results = {};
@@ -57,7 +57,7 @@ class AttackSite:
 
 
 def attack(
-    browser: object, site: AttackSite, robot: ServerProcess, console: ServerProcess
+    browser: object, site: AttackSite, robot: ServiceProcess, console: ServiceProcess
 ) -> tuple[dict[str, str], str]:
     """Open the attack page while a PTWL runs; what the page achieved, and the command's status."""
     site.html = (

@@ -7,8 +7,8 @@ import time
 
 import pytest
 
+from ptwl.cli import main
 from robot_sim.sim import Simulation
-from server.cli import main
 from server.pacing import BATCH_S, MAX_LAG_S, RealTimePacer
 
 
@@ -73,7 +73,7 @@ def test_ptwl_lists_scenes_and_presets(capsys: pytest.CaptureFixture[str]) -> No
 
 def test_ptwl_rejects_an_unknown_scene() -> None:
     result = subprocess.run(
-        [sys.executable, "-m", "server.cli", "up", "--scene", "moon"],
+        [sys.executable, "-m", "ptwl.cli", "up", "--scene", "moon"],
         capture_output=True,
         text=True,
         timeout=60,

@@ -12,12 +12,12 @@ import httpx
 import pytest
 import websockets.sync.client
 
+from ptwl.launcher import ServiceProcess, free_port, running_server
 from robot_sim.behaviors import behavior_for
 from robot_sim.params import RweParams
 from robot_sim.sim import Simulation
 from server.client import RobotClient
 from server.commands import CommandBook
-from server.launcher import ServerProcess, free_port, running_server
 
 
 def strict_json(text: str) -> Any:
@@ -66,7 +66,7 @@ def test_command_events_carry_the_instance(robot: RobotClient) -> None:
     assert all(e["id"] == accepted.id and e["instance"] == instance for e in events)
 
 
-def test_a_faulted_command_is_a_valid_record_for_every_reader(server: ServerProcess) -> None:
+def test_a_faulted_command_is_a_valid_record_for_every_reader(server: ServiceProcess) -> None:
     """A fault poisons the physics with NaN; the record's report fields are sanitised at the source."""
     with RobotClient(server.url) as robot:
         robot.reset_scene("free_space")

@@ -16,7 +16,7 @@ from pathlib import Path
 import httpx
 import pytest
 
-from server.launcher import ServerProcess, free_port, running_console, running_proxy, running_server
+from ptwl.launcher import ServiceProcess, free_port, running_console, running_proxy, running_server
 from tests.console_page import (
     command_id,
     command_status,
@@ -36,7 +36,7 @@ ARTIFACTS = Path(__file__).resolve().parent.parent / "artifacts"
 
 
 @pytest.fixture(scope="module")
-def stack() -> Iterator[tuple[ServerProcess, ServerProcess, ServerProcess]]:
+def stack() -> Iterator[tuple[ServiceProcess, ServiceProcess, ServiceProcess]]:
     with (
         running_server("--scene", "free_space") as robot,
         running_proxy(robot.url) as link,
@@ -209,7 +209,7 @@ def test_console_says_when_the_link_restarts_and_reconnects(browser) -> None:  #
 
 def test_ptwl_up_starts_three_processes_and_stops_them(browser) -> None:  # type: ignore[no-untyped-def]
     ports = [free_port(), free_port(), free_port()]
-    cmd = [sys.executable, "-m", "server.cli", "up", "--scene", "free_space"]
+    cmd = [sys.executable, "-m", "ptwl.cli", "up", "--scene", "free_space"]
     cmd += ["--server-port", str(ports[0]), "--proxy-port", str(ports[1]), "--console-port", str(ports[2])]
     process = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     assert process.stdout is not None
@@ -232,7 +232,7 @@ def test_ptwl_up_starts_three_processes_and_stops_them(browser) -> None:  # type
 
 def test_ptwl_up_exits_naming_the_child_that_died() -> None:
     ports = [free_port(), free_port(), free_port()]
-    cmd = [sys.executable, "-m", "server.cli", "up", "--scene", "free_space"]
+    cmd = [sys.executable, "-m", "ptwl.cli", "up", "--scene", "free_space"]
     cmd += ["--server-port", str(ports[0]), "--proxy-port", str(ports[1]), "--console-port", str(ports[2])]
     process = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     assert process.stdout is not None

@@ -15,10 +15,10 @@ import viser.transforms as tf
 import websockets.sync.client
 from websockets.typing import Subprotocol
 
+from ptwl.launcher import ServiceProcess, free_port, running_proxy
 from robot_sim.behaviors.ptwl import ptwl_goal
 from robot_sim.params import PtwlParams
 from server.client import RobotClient
-from server.launcher import ServerProcess, free_port, running_proxy
 from web.app import ConsoleApp
 from web.desk import Desk
 from web.history import CommandHistory
@@ -119,7 +119,7 @@ def test_a_robot_restart_shows_its_unfinished_commands_lost_not_done() -> None:
 
 
 @pytest.fixture(scope="module")
-def console(server: ServerProcess) -> Iterator[ConsoleApp]:
+def console(server: ServiceProcess) -> Iterator[ConsoleApp]:
     with running_proxy(server.url) as link:
         app = ConsoleApp(link.url, port=free_port())
         app.connect(timeout=30.0)
@@ -205,7 +205,7 @@ def test_dragging_the_gizmo_fills_the_fields(console: ConsoleApp) -> None:
 
 
 def test_only_the_seat_holder_sends_and_the_record_says_who(
-    console: ConsoleApp, server: ServerProcess
+    console: ConsoleApp, server: ServiceProcess
 ) -> None:
     wait_for_state(console)
     with viser_client(console) as b, viser_client(console) as c:
@@ -226,7 +226,7 @@ def test_only_the_seat_holder_sends_and_the_record_says_who(
     assert console.seat.holder is None  # released when its browser went away
 
 
-def test_close_stops_every_thread(server: ServerProcess) -> None:
+def test_close_stops_every_thread(server: ServiceProcess) -> None:
     with running_proxy(server.url) as link:
         app = ConsoleApp(link.url, port=free_port())
         app.connect(timeout=30.0)
@@ -240,7 +240,7 @@ def test_close_stops_every_thread(server: ServerProcess) -> None:
 
 def test_console_refuses_a_non_loopback_bind() -> None:
     result = subprocess.run(
-        [sys.executable, "-m", "server.cli", "console", "--host", "0.0.0.0"],
+        [sys.executable, "-m", "ptwl.cli", "console", "--host", "0.0.0.0"],
         capture_output=True,
         text=True,
         timeout=60,

@@ -9,15 +9,15 @@ from collections.abc import Iterator
 import httpx
 import pytest
 
+from ptwl.launcher import ServiceProcess, running_console, running_proxy, running_server
 from server.client import RobotClient
-from server.launcher import ServerProcess, running_console, running_proxy, running_server
 from tests.console_page import command_id, inputs_for, open_console, port_mm, send, set_fields, wait_status
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
 
 @pytest.fixture(scope="module")
-def stack() -> Iterator[tuple[ServerProcess, ServerProcess, ServerProcess]]:
+def stack() -> Iterator[tuple[ServiceProcess, ServiceProcess, ServiceProcess]]:
     with (
         running_server("--scene", "free_space") as robot,
         running_proxy(robot.url) as link,
@@ -26,14 +26,14 @@ def stack() -> Iterator[tuple[ServerProcess, ServerProcess, ServerProcess]]:
         yield robot, link, console
 
 
-def set_link(link: ServerProcess, **profile: object) -> None:
+def set_link(link: ServiceProcess, **profile: object) -> None:
     """PUT merges into the link's profile: name every field a test uses, blackouts included."""
     body = {"uplink": 0.0, "downlink": 0.0, "blackouts": [], **profile}
     httpx.put(link.url + "/_link/profile", json=body).raise_for_status()
 
 
 @pytest.fixture
-def calm(stack: tuple[ServerProcess, ServerProcess, ServerProcess]) -> Iterator[None]:
+def calm(stack: tuple[ServiceProcess, ServiceProcess, ServiceProcess]) -> Iterator[None]:
     """free_space, nothing queued, a zero-delay link; the same afterwards."""
     robot, link, _ = stack
     set_link(link)

@@ -15,14 +15,14 @@ import httpx
 import pytest
 import websockets
 
-from server.launcher import ServerProcess, running_proxy, running_server
+from ptwl.launcher import ServiceProcess, running_proxy, running_server
 
 TOKEN = "robot-and-link-token-0123"
 AUTH = {"Authorization": f"Bearer {TOKEN}"}
 
 
 @pytest.fixture(scope="module")
-def guarded() -> Iterator[tuple[ServerProcess, ServerProcess]]:
+def guarded() -> Iterator[tuple[ServiceProcess, ServiceProcess]]:
     """Robot and link both with the token, as off loopback."""
     with (
         running_server("--scene", "free_space", "--token", TOKEN) as robot,
@@ -32,7 +32,7 @@ def guarded() -> Iterator[tuple[ServerProcess, ServerProcess]]:
 
 
 @pytest.fixture(scope="module")
-def open_link() -> Iterator[ServerProcess]:
+def open_link() -> Iterator[ServiceProcess]:
     with running_server("--scene", "free_space") as robot, running_proxy(robot.url) as link:
         yield link
 
@@ -62,7 +62,7 @@ def ws_status(url: str) -> int:
     ],
 )
 def test_link_with_a_token_guards_every_forwarded_route(
-    guarded: tuple[ServerProcess, ServerProcess], method: str, path: str, body: object
+    guarded: tuple[ServiceProcess, ServiceProcess], method: str, path: str, body: object
 ) -> None:
     url = guarded[1].url + path
     missing = httpx.request(method, url, json=body)
@@ -71,7 +71,9 @@ def test_link_with_a_token_guards_every_forwarded_route(
     assert httpx.request(method, url, json=body, headers=AUTH).status_code in (200, 202)
 
 
-def test_link_with_a_token_guards_the_telemetry_socket(guarded: tuple[ServerProcess, ServerProcess]) -> None:
+def test_link_with_a_token_guards_the_telemetry_socket(
+    guarded: tuple[ServiceProcess, ServiceProcess],
+) -> None:
     url = guarded[1].url.replace("http://", "ws://") + "/api/telemetry"
     assert ws_status(url) == 401
     assert ws_status(url + "?token=wrong-token-but-long-enough") == 403
@@ -93,7 +95,7 @@ class _Recorder(BaseHTTPRequestHandler):
         pass
 
 
-def test_a_double_slash_path_cannot_reach_another_host(open_link: ServerProcess) -> None:
+def test_a_double_slash_path_cannot_reach_another_host(open_link: ServiceProcess) -> None:
     """`//host:port/x` is a network-path reference: joined to the upstream naively, it names
     another host (the proxy fetched it, with the caller's Authorization header)."""
     internal = ThreadingHTTPServer(("127.0.0.1", 0), _Recorder)
@@ -112,7 +114,7 @@ def test_a_double_slash_path_cannot_reach_another_host(open_link: ServerProcess)
         internal.shutdown()
 
 
-def test_link_body_limit_refuses_a_huge_chunked_body(open_link: ServerProcess) -> None:
+def test_link_body_limit_refuses_a_huge_chunked_body(open_link: ServiceProcess) -> None:
     def chunks() -> Iterator[bytes]:
         yield b'{"type": "ptwl", "pad": "'
         for _ in range(200):  # 200 x 64 KiB = 12.5 MiB, streamed (chunked, no Content-Length)
@@ -141,7 +143,7 @@ def test_link_body_limit_refuses_a_huge_chunked_body(open_link: ServerProcess) -
     ],
 )
 def test_link_profile_is_bounded_and_strict(
-    open_link: ServerProcess, body: str, status: int, fragment: str
+    open_link: ServiceProcess, body: str, status: int, fragment: str
 ) -> None:
     before = httpx.get(open_link.url + "/_link/profile").json()
     response = httpx.put(

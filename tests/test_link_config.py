@@ -9,7 +9,7 @@ import httpx
 import pytest
 
 from latency.named import LinkConfigError, load_profiles, named_profile, named_profiles
-from server.launcher import ServerProcess, running_proxy
+from ptwl.launcher import ServiceProcess, running_proxy
 
 
 def test_named_profiles_load_and_cite_their_sources() -> None:
@@ -32,12 +32,12 @@ def test_a_bad_links_file_names_the_key(tmp_path: Path) -> None:
 
 
 @pytest.fixture(scope="module")
-def proxy(server: ServerProcess) -> Iterator[ServerProcess]:
+def proxy(server: ServiceProcess) -> Iterator[ServiceProcess]:
     with running_proxy(server.url, "--profile", "earth_moon") as p:
         yield p
 
 
-def test_put_takes_partial_updates_and_versions_them(proxy: ServerProcess) -> None:
+def test_put_takes_partial_updates_and_versions_them(proxy: ServiceProcess) -> None:
     before = httpx.get(proxy.url + "/_link/profile").json()
     assert before["uplink"] == 1.3 and before["jitter"]["distribution"] == "normal"
     after = httpx.put(proxy.url + "/_link/profile", json={"uplink": 0.1}).json()
@@ -58,7 +58,7 @@ def test_put_takes_partial_updates_and_versions_them(proxy: ServerProcess) -> No
     ],
 )
 def test_bad_profile_updates_are_refused_and_change_nothing(
-    proxy: ServerProcess, body: str, fragment: str
+    proxy: ServiceProcess, body: str, fragment: str
 ) -> None:
     before = httpx.get(proxy.url + "/_link/profile").json()
     response = httpx.put(
@@ -72,7 +72,7 @@ def test_bad_profile_updates_are_refused_and_change_nothing(
 LINK_TOKEN = "link-token-0123456789"
 
 
-def test_control_api_token(server: ServerProcess) -> None:
+def test_control_api_token(server: ServiceProcess) -> None:
     with running_proxy(server.url, "--token", LINK_TOKEN) as guarded:
         assert httpx.get(guarded.url + "/_link/stats").status_code == 401
         assert (
@@ -91,7 +91,7 @@ def test_control_api_token(server: ServerProcess) -> None:
 )
 def test_proxy_refuses_to_start(args: list[str], message: str) -> None:
     result = subprocess.run(
-        [sys.executable, "-m", "server.cli", "proxy", "--port", "0", *args],
+        [sys.executable, "-m", "ptwl.cli", "proxy", "--port", "0", *args],
         capture_output=True,
         text=True,
         timeout=60,

@@ -15,13 +15,13 @@ import websockets
 
 from latency.clock import SimulatedLink
 from latency.profile import LinkProfile
-from server.launcher import ServerProcess, running_proxy, running_server
+from ptwl.launcher import ServiceProcess, running_proxy, running_server
 
 HOLD_TOLERANCE_S = 0.005
 
 
 @pytest.fixture(scope="module")
-def fast_server() -> Iterator[ServerProcess]:
+def fast_server() -> Iterator[ServiceProcess]:
     """A robot server sending telemetry at 200 messages/s."""
     with running_server("--scene", "free_space", "--telemetry-hz", "200") as srv:
         yield srv
@@ -83,7 +83,7 @@ def check_record(records: list[dict], direction: str, n_min: int) -> list[dict]:
     return rows
 
 
-def test_one_second_each_way_200_messages_per_second(fast_server: ServerProcess, tmp_path: Path) -> None:
+def test_one_second_each_way_200_messages_per_second(fast_server: ServiceProcess, tmp_path: Path) -> None:
     record = tmp_path / "link.jsonl"
     with running_proxy(fast_server.url, "--uplink", "1", "--downlink", "1", "--record", str(record)) as proxy:
         received = asyncio.run(exchange(proxy.url, seconds=11.0, send_hz=200.0))
@@ -111,7 +111,7 @@ def test_one_second_each_way_200_messages_per_second(fast_server: ServerProcess,
         assert s["realized_delay_s"]["p50"] == pytest.approx(1.0, abs=0.003)
 
 
-def test_jitter_keeps_order_and_reports_realized_delay(fast_server: ServerProcess, tmp_path: Path) -> None:
+def test_jitter_keeps_order_and_reports_realized_delay(fast_server: ServiceProcess, tmp_path: Path) -> None:
     record = tmp_path / "link.jsonl"
     jitter = {"distribution": "uniform", "amount": 0.3, "seed": 11}
     with running_proxy(fast_server.url, "--uplink", "1", "--downlink", "1", "--record", str(record)) as proxy:
@@ -143,7 +143,7 @@ def test_jitter_keeps_order_and_reports_realized_delay(fast_server: ServerProces
 
 
 def test_http_round_trip_takes_uplink_plus_downlink_and_control_is_immediate(
-    fast_server: ServerProcess,
+    fast_server: ServiceProcess,
 ) -> None:
     with running_proxy(fast_server.url, "--uplink", "0.6", "--downlink", "0.9") as proxy:
         for _ in range(3):
@@ -162,7 +162,7 @@ def test_http_round_trip_takes_uplink_plus_downlink_and_control_is_immediate(
         assert bad.status_code == 422 and "duration" in bad.json()["detail"]
 
 
-def test_blackout_hold_and_drop_live(fast_server: ServerProcess) -> None:
+def test_blackout_hold_and_drop_live(fast_server: ServiceProcess) -> None:
     with running_proxy(fast_server.url, "--downlink", "0.1") as proxy:
         hold = {"blackouts": [{"start": 1.0, "duration": 1.0, "mode": "hold"}]}
         httpx.put(proxy.url + "/_link/profile", json=hold).raise_for_status()
@@ -186,7 +186,7 @@ def test_blackout_hold_and_drop_live(fast_server: ServerProcess) -> None:
         assert dropped == pytest.approx(gaps[0], abs=3)
 
 
-def test_profile_change_mid_stream_is_versioned(fast_server: ServerProcess, tmp_path: Path) -> None:
+def test_profile_change_mid_stream_is_versioned(fast_server: ServiceProcess, tmp_path: Path) -> None:
     record = tmp_path / "link.jsonl"
     with running_proxy(fast_server.url, "--downlink", "1.0", "--record", str(record)) as proxy:
 

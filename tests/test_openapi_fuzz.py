@@ -10,14 +10,14 @@ from pathlib import Path
 import httpx
 import pytest
 
-from server.launcher import ServerProcess, running_proxy, running_server
+from ptwl.launcher import ServiceProcess, running_proxy, running_server
 
 ROOT = Path(__file__).resolve().parent.parent
 MAX_EXAMPLES = 12
 
 
 @pytest.fixture(scope="module")
-def stack() -> Iterator[tuple[ServerProcess, ServerProcess]]:
+def stack() -> Iterator[tuple[ServiceProcess, ServiceProcess]]:
     with running_server("--scene", "free_space") as robot, running_proxy(robot.url) as link:
         yield robot, link
 
@@ -49,14 +49,14 @@ def schemathesis(url: str) -> subprocess.CompletedProcess[str]:
 
 
 @pytest.mark.parametrize("through", ["robot", "link"])
-def test_schemathesis_finds_nothing(stack: tuple[ServerProcess, ServerProcess], through: str) -> None:
+def test_schemathesis_finds_nothing(stack: tuple[ServiceProcess, ServiceProcess], through: str) -> None:
     robot, link = stack
     result = schemathesis(robot.url if through == "robot" else link.url)
     assert result.returncode == 0, result.stdout[-6000:] + result.stderr[-2000:]
     assert "passed" in result.stdout
 
 
-def test_the_document_says_what_main_left_out(stack: tuple[ServerProcess, ServerProcess]) -> None:
+def test_the_document_says_what_main_left_out(stack: tuple[ServiceProcess, ServiceProcess]) -> None:
     """Main documented 422 as an array, made `type` optional, had no scene enum, left 400, 401,
     403, 404, 413, 429 and 503 out and sent 429 with no Retry-After."""
     document = httpx.get(stack[0].url + "/openapi.json").json()

@@ -14,8 +14,8 @@ import viser
 import websockets
 
 from guard.access import AccessPolicy
+from ptwl.launcher import ServiceProcess, running_console, running_proxy, running_server
 from server.client import RobotClient
-from server.launcher import ServerProcess, running_console, running_proxy, running_server
 
 EVIL = "http://evil.example:8000"
 
@@ -40,7 +40,7 @@ def ws_status(url: str, headers: dict[str, str] | None = None, subprotocols: lis
 
 
 @pytest.fixture(scope="module")
-def stack() -> Iterator[tuple[ServerProcess, ServerProcess]]:
+def stack() -> Iterator[tuple[ServiceProcess, ServiceProcess]]:
     with running_server("--scene", "free_space") as robot, running_proxy(robot.url) as link:
         yield robot, link
 
@@ -66,7 +66,7 @@ def test_policy_names_and_origins() -> None:
 
 
 @pytest.mark.parametrize("through", ["robot", "link"])
-def test_telemetry_socket_refuses_a_foreign_origin(stack: tuple[ServerProcess, ...], through: str) -> None:
+def test_telemetry_socket_refuses_a_foreign_origin(stack: tuple[ServiceProcess, ...], through: str) -> None:
     base = stack[0].url if through == "robot" else stack[1].url
     url = base.replace("http://", "ws://") + "/api/telemetry"
     assert ws_status(url, {"Origin": EVIL}) == 403
@@ -78,7 +78,7 @@ def test_telemetry_socket_refuses_a_foreign_origin(stack: tuple[ServerProcess, .
 @pytest.mark.parametrize("through", ["robot", "link"])
 @pytest.mark.parametrize("path", ["/api/stop", "/api/scene", "/api/commands"])
 def test_no_cors_post_from_another_origin_changes_nothing(
-    stack: tuple[ServerProcess, ...], through: str, path: str
+    stack: tuple[ServiceProcess, ...], through: str, path: str
 ) -> None:
     """What `fetch(url, {method: "POST", mode: "no-cors"})` sends: a text/plain body and Origin."""
     base = stack[0].url if through == "robot" else stack[1].url
@@ -93,7 +93,7 @@ def test_no_cors_post_from_another_origin_changes_nothing(
 
 
 @pytest.mark.parametrize("through", ["robot", "link"])
-def test_dns_rebinding_host_is_refused(stack: tuple[ServerProcess, ...], through: str) -> None:
+def test_dns_rebinding_host_is_refused(stack: tuple[ServiceProcess, ...], through: str) -> None:
     base = stack[0].url if through == "robot" else stack[1].url
     client, running = busy(base)
     port = base.rsplit(":", 1)[1]
@@ -120,7 +120,7 @@ def test_allow_origin_and_allow_host_let_a_named_page_in() -> None:
         )
 
 
-def test_console_socket_refuses_a_foreign_origin(stack: tuple[ServerProcess, ...]) -> None:
+def test_console_socket_refuses_a_foreign_origin(stack: tuple[ServiceProcess, ...]) -> None:
     """viser checks no Origin; the console's front door does, before viser sees a byte."""
     with running_console(stack[1].url) as console:
         ws = console.url.replace("http://", "ws://")

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import websockets.sync.client
 
+from ptwl.launcher import ServiceProcess
 from server.client import RobotClient
-from server.launcher import ServerProcess
 from server.models import SENDER_HEADER
 
 
@@ -39,7 +39,7 @@ def test_a_queued_relative_ptwl_resolves_against_the_port_where_it_really_starts
     assert np.array(done_second.final_port.position) == pytest.approx(second_goal, abs=3e-3)  # type: ignore[union-attr]
 
 
-def test_the_running_event_carries_the_goal(server: ServerProcess, robot: RobotClient) -> None:
+def test_the_running_event_carries_the_goal(server: ServiceProcess, robot: RobotClient) -> None:
     with websockets.sync.client.connect(server.url.replace("http", "ws") + "/api/telemetry") as ws:
         accepted = robot.ptwl(translation=[0.0, 0.0, -0.01], duration=0.5, watchdog=5.0)
         goal = None
@@ -67,7 +67,7 @@ def test_each_command_records_who_sent_it(robot: RobotClient) -> None:
 
 @pytest.mark.parametrize("bad", ["", "x" * 65, "tab\there", "caf\u00e9"])
 def test_a_bad_sender_is_refused_naming_the_header(
-    server: ServerProcess, robot: RobotClient, bad: str
+    server: ServiceProcess, robot: RobotClient, bad: str
 ) -> None:
     before = len(robot.commands(limit=1000))
     response = httpx.post(
@@ -80,7 +80,7 @@ def test_a_bad_sender_is_refused_naming_the_header(
     assert len(robot.commands(limit=1000)) == before  # nothing queued
 
 
-def test_telemetry_states_carry_the_task_progress(server: ServerProcess, robot: RobotClient) -> None:
+def test_telemetry_states_carry_the_task_progress(server: ServiceProcess, robot: RobotClient) -> None:
     robot.reset_scene("surface")
     try:
         state = robot.state()

@@ -4,6 +4,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from ptwl_config import config_dir
 
 from robot_sim.behaviors import BehaviorParams, behavior_for
 from robot_sim.behaviors.dither import Dither
@@ -11,7 +12,7 @@ from robot_sim.behaviors.ptwl import Ptwl
 from robot_sim.behaviors.rwe import Rwe
 from robot_sim.errors import ConfigError, UnknownNameError
 from robot_sim.params import DitherParams, PtwlParams, RweParams
-from robot_sim.presets import config_dir, default_presets, load_presets
+from robot_sim.presets import default_presets, load_presets
 from robot_sim.scenes import SCENES, get_scene
 from robot_sim.sim import Simulation
 

@@ -9,14 +9,14 @@ import httpx
 import pytest
 import websockets
 
+from ptwl.launcher import ServiceProcess, running_server
 from server.config import ConfigError, ServerConfig, is_loopback
-from server.launcher import ServerProcess, running_server
 
 TOKEN = "s3cret-token-0123456789"
 
 
 @pytest.fixture(scope="module")
-def guarded() -> Iterator[ServerProcess]:
+def guarded() -> Iterator[ServiceProcess]:
     with running_server("--scene", "free_space", "--token", TOKEN) as srv:
         yield srv
 
@@ -31,7 +31,7 @@ def test_non_loopback_bind_without_token_refuses_to_start() -> None:
     with pytest.raises(ConfigError, match="needs an access token"):
         ServerConfig(host="0.0.0.0").check()
     result = subprocess.run(
-        [sys.executable, "-m", "server.cli", "serve", "--host", "0.0.0.0", "--port", "0"],
+        [sys.executable, "-m", "ptwl.cli", "serve", "--host", "0.0.0.0", "--port", "0"],
         capture_output=True,
         text=True,
         timeout=60,
@@ -52,7 +52,7 @@ def test_non_loopback_bind_without_token_refuses_to_start() -> None:
     ],
 )
 def test_token_required_401_missing_403_wrong(
-    guarded: ServerProcess, method: str, path: str, body: dict | None
+    guarded: ServiceProcess, method: str, path: str, body: dict | None
 ) -> None:
     url = guarded.url + path
     missing = httpx.request(method, url, json=body)
@@ -64,13 +64,13 @@ def test_token_required_401_missing_403_wrong(
 
 
 @pytest.mark.parametrize("path", ["/api/health", "/docs", "/openapi.json", "/redoc"])
-def test_with_a_token_nothing_is_open_not_even_health_or_docs(guarded: ServerProcess, path: str) -> None:
+def test_with_a_token_nothing_is_open_not_even_health_or_docs(guarded: ServiceProcess, path: str) -> None:
     assert httpx.get(guarded.url + path).status_code == 401
     right = httpx.get(guarded.url + path, headers={"Authorization": f"Bearer {TOKEN}"})
     assert right.status_code == 200
 
 
-def test_websocket_needs_the_token_too(guarded: ServerProcess) -> None:
+def test_websocket_needs_the_token_too(guarded: ServiceProcess) -> None:
     url = guarded.url.replace("http://", "ws://") + "/api/telemetry"
 
     async def status_of(target: str, headers: dict[str, str] | None = None) -> int:
@@ -91,7 +91,7 @@ def test_websocket_needs_the_token_too(guarded: ServerProcess) -> None:
 @pytest.mark.parametrize("token", [" ", "a", "short-token", "has white space in it"])
 def test_a_weak_token_refuses_to_start(command: str, token: str) -> None:
     result = subprocess.run(
-        [sys.executable, "-m", "server.cli", command, "--port", "0", "--token", token],
+        [sys.executable, "-m", "ptwl.cli", command, "--port", "0", "--token", token],
         capture_output=True,
         text=True,
         timeout=60,

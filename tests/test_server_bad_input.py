@@ -10,8 +10,8 @@ from collections.abc import Iterator
 import httpx
 import pytest
 
+from ptwl.launcher import ServiceProcess
 from server.client import RobotClient
-from server.launcher import ServerProcess
 
 BAD_COMMANDS = {
     "json_nan_token": ('{"type": "ptwl", "duration": NaN}', 422, ["duration", "finite", "(0, 600] s"]),
@@ -150,7 +150,7 @@ def assert_nothing_lost(robot: RobotClient, running: int, queued: int, sim_time_
 
 @pytest.mark.parametrize("case", list(BAD_COMMANDS))
 def test_bad_command_is_refused_and_nothing_is_lost(
-    case: str, busy: tuple[RobotClient, int, int], server: ServerProcess
+    case: str, busy: tuple[RobotClient, int, int], server: ServiceProcess
 ) -> None:
     robot, running, queued = busy
     body, status, fragments = BAD_COMMANDS[case]
@@ -166,7 +166,7 @@ def test_bad_command_is_refused_and_nothing_is_lost(
 
 
 def test_unknown_scene_lists_the_valid_ones(
-    busy: tuple[RobotClient, int, int], server: ServerProcess
+    busy: tuple[RobotClient, int, int], server: ServiceProcess
 ) -> None:
     robot, running, queued = busy
     before = robot.health().sim_time
@@ -188,7 +188,7 @@ def test_unknown_scene_lists_the_valid_ones(
     ],
 )
 def test_bad_scene_reset_is_refused_before_it_stops_anything(
-    busy: tuple[RobotClient, int, int], server: ServerProcess, body: dict[str, object], fragments: list[str]
+    busy: tuple[RobotClient, int, int], server: ServiceProcess, body: dict[str, object], fragments: list[str]
 ) -> None:
     """A reset stops everything, so it must be judged whole first: seed -1 used to abort the
     running command and drop the queue, then answer 500."""
@@ -210,7 +210,7 @@ def test_huge_dither_axis_is_a_direction_not_a_fault(robot: RobotClient) -> None
     assert robot.health().faults == 0
 
 
-def test_bad_long_poll_wait(busy: tuple[RobotClient, int, int], server: ServerProcess) -> None:
+def test_bad_long_poll_wait(busy: tuple[RobotClient, int, int], server: ServiceProcess) -> None:
     robot, running, queued = busy
     before = robot.health().sim_time
     response = httpx.get(f"{server.url}/api/commands/{running}", params={"wait": 100})
@@ -218,7 +218,7 @@ def test_bad_long_poll_wait(busy: tuple[RobotClient, int, int], server: ServerPr
     assert_nothing_lost(robot, running, queued, before)
 
 
-def test_queue_is_bounded_with_429(robot: RobotClient, server: ServerProcess) -> None:
+def test_queue_is_bounded_with_429(robot: RobotClient, server: ServiceProcess) -> None:
     running = robot.ptwl(translation=[0.0, 0.0, -0.05], duration=60.0).id
     ids = [robot.ptwl(translation=[0.0, 0.0, -0.01], duration=1.0).id for _ in range(64)]
     response = httpx.post(server.url + "/api/commands", json={"type": "rwe"})

@@ -7,11 +7,11 @@ import time
 import httpx
 import pytest
 
+from ptwl.launcher import ServiceProcess, running_server
 from server.client import RobotClient
-from server.launcher import ServerProcess, running_server
 
 
-def test_sim_time_follows_wall_time_within_2_percent_over_10_s(server: ServerProcess) -> None:
+def test_sim_time_follows_wall_time_within_2_percent_over_10_s(server: ServiceProcess) -> None:
     with RobotClient(server.url) as robot:
         robot.reset_scene("surface")
         robot.ptwl(translation=[0.0, 0.0, 0.0486], duration=2.0, force_threshold=100.0, watchdog=60.0)
@@ -38,7 +38,7 @@ def test_clean_shutdown_frees_the_port(sig: int) -> None:
 
 
 def test_a_simulation_fault_ends_the_command_fault_and_the_server_keeps_serving(
-    server: ServerProcess,
+    server: ServiceProcess,
 ) -> None:
     with RobotClient(server.url) as robot:
         robot.reset_scene("free_space")

@@ -8,7 +8,7 @@ import time
 import pytest
 import websockets
 
-from server.launcher import ServerProcess
+from ptwl.launcher import ServiceProcess
 from server.telemetry import CLIENT_BACKLOG, Broadcaster
 
 WINDOW_S = 3.0
@@ -27,12 +27,12 @@ async def receive_states(url: str, seconds: float) -> list[tuple[float, dict]]:
     return out
 
 
-def ws_url(server: ServerProcess) -> str:
+def ws_url(server: ServiceProcess) -> str:
     return server.url.replace("http://", "ws://") + "/api/telemetry"
 
 
 @pytest.mark.parametrize("clients", [1, 10])
-def test_rate_within_10_percent_and_sequence_increments_by_one(server: ServerProcess, clients: int) -> None:
+def test_rate_within_10_percent_and_sequence_increments_by_one(server: ServiceProcess, clients: int) -> None:
     async def main() -> list[list[tuple[float, dict]]]:
         return await asyncio.gather(*(receive_states(ws_url(server), WINDOW_S) for _ in range(clients)))
 
@@ -52,7 +52,7 @@ def test_rate_within_10_percent_and_sequence_increments_by_one(server: ServerPro
         assert {"port", "attractor", "wrench", "joint_positions", "active_command", "scene"} <= set(first)
 
 
-def test_a_client_that_stops_reading_slows_neither_the_sim_nor_the_others(server: ServerProcess) -> None:
+def test_a_client_that_stops_reading_slows_neither_the_sim_nor_the_others(server: ServiceProcess) -> None:
     async def main() -> tuple[list[tuple[float, dict]], float]:
         stalled = await websockets.connect(ws_url(server), ping_interval=None, max_queue=1)
         try:
@@ -70,7 +70,7 @@ def test_a_client_that_stops_reading_slows_neither_the_sim_nor_the_others(server
     assert sim_rate == pytest.approx(1.0, rel=0.05)
 
 
-async def _health(server: ServerProcess) -> str:
+async def _health(server: ServiceProcess) -> str:
     import httpx
 
     async with httpx.AsyncClient() as client:

@@ -14,24 +14,24 @@ from collections.abc import Iterator
 import httpx
 import pytest
 
+from ptwl.launcher import ServiceProcess, running_proxy, running_server
 from server.client import RobotClient
-from server.launcher import ServerProcess, running_proxy, running_server
 
 ONE_WAY_S = 0.25
 
 
 @pytest.fixture(scope="module")
-def stack() -> Iterator[tuple[ServerProcess, ServerProcess]]:
+def stack() -> Iterator[tuple[ServiceProcess, ServiceProcess]]:
     with running_server("--scene", "free_space") as robot, running_proxy(robot.url) as link:
         yield robot, link
 
 
-def set_delay(link: ServerProcess, one_way_s: float) -> None:
+def set_delay(link: ServiceProcess, one_way_s: float) -> None:
     profile = {"uplink": one_way_s, "downlink": one_way_s}
     httpx.put(link.url + "/_link/profile", json=profile).raise_for_status()
 
 
-def wait_for_long_polls(robot: ServerProcess, n: int, timeout_s: float = 10.0) -> int:
+def wait_for_long_polls(robot: ServiceProcess, n: int, timeout_s: float = 10.0) -> int:
     deadline = time.monotonic() + timeout_s
     while True:
         open_now = int(httpx.get(robot.url + "/api/health").json()["long_polls"])
@@ -54,7 +54,7 @@ async def _open_long_polls(url: str, command_id: int, n: int, hold_s: float) -> 
         await asyncio.gather(*polls, return_exceptions=True)
 
 
-def test_stop_through_the_link_after_100_abandoned_long_polls(stack: tuple[ServerProcess, ...]) -> None:
+def test_stop_through_the_link_after_100_abandoned_long_polls(stack: tuple[ServiceProcess, ...]) -> None:
     robot, link = stack
     set_delay(link, 0.0)
     client = RobotClient(link.url)
@@ -70,7 +70,7 @@ def test_stop_through_the_link_after_100_abandoned_long_polls(stack: tuple[Serve
     client.close()
 
 
-def test_stop_over_the_delay_with_200_long_polls_open(stack: tuple[ServerProcess, ...]) -> None:
+def test_stop_over_the_delay_with_200_long_polls_open(stack: tuple[ServiceProcess, ...]) -> None:
     robot, link = stack
     set_delay(link, ONE_WAY_S)
     try:
@@ -125,7 +125,7 @@ def test_a_long_poll_that_runs_out_leaves_nothing_behind(robot: RobotClient) -> 
     robot.stop()
 
 
-def test_a_short_soak_every_command_ends_exactly_once(server: ServerProcess) -> None:
+def test_a_short_soak_every_command_ends_exactly_once(server: ServiceProcess) -> None:
     """bench/soak.py at 600 commands (the benchmark runs 10,000): mixed behaviors with STOPs."""
     from bench.soak import soak
 

@@ -1,11 +1,10 @@
 """Console defaults from config/console.toml (operator units: mm, deg)."""
 
-import os
 import tomllib
 from dataclasses import dataclass
-from importlib import resources
-from pathlib import Path
 from typing import Any
+
+from ptwl_config import config_dir
 
 
 @dataclass(frozen=True)
@@ -19,9 +18,7 @@ class ConsoleDefaults:
 
 
 def load_defaults() -> ConsoleDefaults:
-    override = os.environ.get("PTWL_CONFIG_DIR")
-    base = Path(override) if override else Path(str(resources.files("ptwl_config")))
-    raw = tomllib.loads((base / "console.toml").read_text())
+    raw = tomllib.loads((config_dir() / "console.toml").read_text())
     return ConsoleDefaults(
         ptwl=raw["ptwl"],
         rwe=raw["rwe"],

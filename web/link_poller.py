@@ -7,13 +7,15 @@ from typing import Any
 
 import httpx
 
+from guard.access import bearer_header
+
 POLL_S = 2.0
 
 
 class LinkPoller:
     def __init__(self, robot_url: str, token: str | None, on_text: Callable[[str], None]) -> None:
         self._url = robot_url + "/_link/profile"
-        self._headers = {"Authorization": f"Bearer {token}"} if token else {}
+        self._headers = bearer_header(token)
         self._on_text = on_text
         self.rtt_s = 0.0
         self.profile: dict[str, Any] | None = None

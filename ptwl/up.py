@@ -9,7 +9,7 @@ import sys
 import threading
 from contextlib import ExitStack
 
-from server.launcher import ServerProcess, running
+from ptwl.launcher import ServiceProcess, running
 
 POLL_S = 0.2
 
@@ -24,7 +24,7 @@ def up(
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda signum, frame: stop.set())
-    children: dict[str, ServerProcess] = {}
+    children: dict[str, ServiceProcess] = {}
     with ExitStack() as stack:
         try:
             children["robot server"] = stack.enter_context(

@@ -64,7 +64,7 @@ def _stop_on_sigterm(signum: int, frame: object) -> None:
 
 
 def cmd_up(args: argparse.Namespace) -> int:
-    from server.up import up
+    from ptwl.up import up
 
     if args.rtt < 0:
         raise ConfigError(f"--rtt must be >= 0 s, got {args.rtt:g}")

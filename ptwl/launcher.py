@@ -25,7 +25,7 @@ def free_port() -> int:
 
 
 @dataclass
-class ServerProcess:
+class ServiceProcess:
     url: str
     process: subprocess.Popen[str]
     output: list[str]
@@ -41,7 +41,7 @@ class ServerProcess:
 
 
 @contextmanager
-def running_server(*args: str, port: int = 0, startup_timeout: float = 30.0) -> Iterator[ServerProcess]:
+def running_server(*args: str, port: int = 0, startup_timeout: float = 30.0) -> Iterator[ServiceProcess]:
     """Start `ptwl serve --port PORT ARGS` (0: any free port), wait until healthy, SIGINT it after."""
     with running(
         "serve", "--port", str(port), *args, health="/api/health", startup_timeout=startup_timeout
@@ -52,7 +52,7 @@ def running_server(*args: str, port: int = 0, startup_timeout: float = 30.0) -> 
 @contextmanager
 def running_proxy(
     upstream: str, *args: str, port: int = 0, startup_timeout: float = 30.0
-) -> Iterator[ServerProcess]:
+) -> Iterator[ServiceProcess]:
     """Start `ptwl proxy --upstream URL --port PORT ARGS`, wait until it answers, SIGINT it after."""
     cmd = ("proxy", "--upstream", upstream, "--port", str(port), *args)
     with running(*cmd, health="/_link/profile", startup_timeout=startup_timeout) as p:
@@ -60,7 +60,7 @@ def running_proxy(
 
 
 @contextmanager
-def running_console(robot_url: str, *args: str, startup_timeout: float = 60.0) -> Iterator[ServerProcess]:
+def running_console(robot_url: str, *args: str, startup_timeout: float = 60.0) -> Iterator[ServiceProcess]:
     """Start `ptwl console --robot URL` on a free port, wait until it serves its page."""
     cmd = ("console", "--robot", robot_url, "--port", str(free_port()), *args)
     with running(*cmd, health="/", startup_timeout=startup_timeout) as p:
@@ -70,11 +70,11 @@ def running_console(robot_url: str, *args: str, startup_timeout: float = 60.0) -
 @contextmanager
 def running(
     *ptwl_args: str, health: str, startup_timeout: float = 30.0, echo: str | None = None
-) -> Iterator[ServerProcess]:
+) -> Iterator[ServiceProcess]:
     """Start `ptwl ARGS`, read the URL it prints, wait until `health` answers.
 
     With `echo`, the child's output is also printed, each line prefixed with it."""
-    cmd = [sys.executable, "-m", "server.cli", *ptwl_args]
+    cmd = [sys.executable, "-m", "ptwl.cli", *ptwl_args]
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     # Own process group: a terminal's Ctrl-C (sent to the whole foreground group) reaches only the
     # parent, which then stops each child once; a second signal would make uvicorn force-exit.
@@ -100,7 +100,7 @@ def running(
     try:
         if not found.wait(startup_timeout):
             raise RuntimeError(f"server did not start: {''.join(output)}")
-        server = ServerProcess(url[0], process, output)
+        server = ServiceProcess(url[0], process, output)
         deadline = time.monotonic() + startup_timeout
         while True:
             try:
