@@ -67,11 +67,11 @@ def running_console(robot_url: str, *args: str, startup_timeout: float = 60.0) -
         yield p
 
 
-@contextmanager
-def running(
+def start(
     *ptwl_args: str, health: str, startup_timeout: float = 30.0, echo: str | None = None
-) -> Iterator[ServiceProcess]:
-    """Start `ptwl ARGS`, read the URL it prints, wait until `health` answers.
+) -> ServiceProcess:
+    """Start `ptwl ARGS`, read the URL it prints, wait until `health` answers; stop it with
+    `ServiceProcess.stop()`.
 
     With `echo`, the child's output is also printed, each line prefixed with it."""
     cmd = [sys.executable, "-m", "ptwl.cli", *ptwl_args]
@@ -106,18 +106,34 @@ def running(
             try:
                 # Answering at all is up: a token-guarded path says 401.
                 if httpx.get(server.url + health, timeout=2.0).status_code < 500:
-                    break
+                    return server
             except httpx.TransportError:
                 pass
             if time.monotonic() > deadline or process.poll() is not None:
                 raise RuntimeError(f"server not healthy: {''.join(output)}")
             time.sleep(0.05)
+    except BaseException:
+        _stop(process)
+        raise
+
+
+@contextmanager
+def running(
+    *ptwl_args: str, health: str, startup_timeout: float = 30.0, echo: str | None = None
+) -> Iterator[ServiceProcess]:
+    """`start`, and stop it on leaving."""
+    server = start(*ptwl_args, health=health, startup_timeout=startup_timeout, echo=echo)
+    try:
         yield server
     finally:
-        if process.poll() is None:
-            process.send_signal(signal.SIGINT)
-            try:
-                process.wait(15)
-            except subprocess.TimeoutExpired:
-                process.kill()
-                process.wait()
+        _stop(server.process)
+
+
+def _stop(process: "subprocess.Popen[str]", timeout: float = 15.0) -> None:
+    if process.poll() is None:
+        process.send_signal(signal.SIGINT)
+        try:
+            process.wait(timeout)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
