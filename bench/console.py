@@ -8,6 +8,10 @@ line, updated in the same atomic batch as the 3D scene), which headless Chromium
 bounds by its software-WebGL frame rate. Measured after a warm-up: a fresh page first loads
 the scene and works off a few seconds of backlog.
 
+Also (issue 10): frames the page renders per second while the arm moves (requestAnimationFrame
+callbacks: the browser runs one per frame it draws), how often the pinned status bar updates,
+and how long a fresh console takes to show Send at a 3 s round trip.
+
     python -m bench.console [--seconds 10]
 """
 
@@ -16,6 +20,7 @@ import json
 import re
 import statistics
 import time
+from typing import Any
 
 import httpx
 import zstandard
@@ -26,8 +31,9 @@ from ptwl.launcher import running_console, running_proxy, running_server
 from web.browser import launch
 
 WARM_UP_S = 8.0  # a fresh page first loads the scene and works off a few seconds of backlog
-# The seq and console arrival time of each telemetry state travel in the status line's HTML.
-STATUS_PATTERN = re.compile(rb'data-seq=\\?"(\d+)\\?" data-arrived=\\?"([\d.]+)')
+# The seq and console arrival time of each telemetry state travel in a hidden element sent in
+# the same atomic batch as the scene.
+STATUS_PATTERN = re.compile(rb'id=\\?"ptwl-scene\\?" data-seq=\\?"(\d+)\\?" data-arrived=\\?"([\d.]+)')
 
 
 def states_in_frame(payload: bytes) -> list[tuple[int, float]]:
@@ -39,12 +45,23 @@ def states_in_frame(payload: bytes) -> list[tuple[int, float]]:
     return [(int(seq), float(arrived)) for seq, arrived in STATUS_PATTERN.findall(inner)]
 
 
+FRAMES = """
+() => {
+  window.__frames = 0;
+  const tick = () => { window.__frames++; requestAnimationFrame(tick); };
+  requestAnimationFrame(tick);
+  window.__bar = 0;
+  new MutationObserver(() => { window.__bar++; }).observe(
+    document.querySelector('#ptwl-bar').parentElement, {childList: true, subtree: true});
+}
+"""
+
 OBSERVER = """
 () => {
   window.__updates = [];
-  const node = document.querySelector('#ptwl-telemetry').parentElement;
+  const node = document.querySelector('#ptwl-scene').parentElement;
   new MutationObserver(() => {
-    const el = document.querySelector('#ptwl-telemetry');
+    const el = document.querySelector('#ptwl-scene');
     if (el && el.dataset.arrived) {
       window.__updates.push([Date.now() / 1000, Number(el.dataset.seq), Number(el.dataset.arrived)]);
     }
@@ -77,6 +94,7 @@ def main() -> None:
         page.wait_for_function("document.querySelector('#ptwl-telemetry')?.dataset.seq > 0", timeout=60_000)
         time.sleep(WARM_UP_S)
         page.evaluate(OBSERVER)
+        page.evaluate(FRAMES)
         # The robot moves throughout: a torsional dither wobbles the sleeve over the peg.
         httpx.post(
             link.url + "/api/commands",
@@ -94,8 +112,10 @@ def main() -> None:
         page.wait_for_timeout(args.seconds * 1000)
         wall, cpu = time.monotonic() - t0, cpu_seconds(pid) - cpu0
         drawn = page.evaluate("window.__updates")
+        frames_drawn, bar_updates = page.evaluate("[window.__frames, window.__bar]")
         t_start = time.time() - wall
         browser.close()
+        send_s = send_visible_s(robot.url, playwright, rtt_s=3.0)
     received = [
         [t, seq, arrived] for t, data in frames if t >= t_start for seq, arrived in states_in_frame(data)
     ]
@@ -112,9 +132,27 @@ def main() -> None:
                 # headless Chromium without a GPU (software WebGL) holds to ~10-15/s here.
                 "states_drawn_per_s_software_webgl": round(len(shown) / wall, 1),
                 "arrival_to_drawn_ms": delay_stats(shown),
+                "frames_per_s_while_moving_software_webgl": round(frames_drawn / wall, 1),
+                "status_bar_updates_per_s": round(bar_updates / wall, 1),
+                "fresh_console_send_visible_s_at_3s_rtt": send_s,
             }
         )
     )
+
+
+def send_visible_s(robot_url: str, playwright: Any, rtt_s: float) -> float:
+    """Seconds from starting a console behind an `rtt_s` link until its page shows Send."""
+    half = str(rtt_s / 2.0)
+    with running_proxy(robot_url, "--uplink", half, "--downlink", half) as link:
+        t0 = time.monotonic()
+        with running_console(link.url) as console:
+            browser = launch(playwright)
+            page = browser.new_page(viewport={"width": 1500, "height": 950})
+            page.goto(console.url)
+            page.get_by_role("button", name="Send cmd").wait_for(timeout=120_000)
+            elapsed = time.monotonic() - t0
+            browser.close()
+    return round(elapsed, 2)
 
 
 def first_sightings(rows: list[list[float]]) -> dict[int, tuple[float, float]]:

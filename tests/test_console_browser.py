@@ -59,7 +59,7 @@ def test_console_loads_with_the_three_tabs_and_the_preset_dropdown(browser, stac
     ):
         assert inputs_for(page, label).count() >= 1, label
     assert inputs_for(page, "Translation [mm]").count() == 3
-    preset = inputs_for(page, "Stiffness preset").first
+    preset = inputs_for(page, "Stiffness preset (PTWL)").first
     assert preset.input_value() == "medium"  # from config/console.toml
     preset.click()
     options = page.get_by_role("option").all_inner_texts()

@@ -186,7 +186,11 @@ def test_fields_move_the_contemplated_ghost_and_the_gizmo(console: ConsoleApp) -
         port = console._port()
         assert port is not None
         np.testing.assert_allclose(desk.gizmo.position, port[0] + [0.020, -0.010, 0.005], atol=2e-4)
-        np.testing.assert_allclose(desk.contemplated.position, desk.gizmo.position, atol=1e-9)
+        np.testing.assert_allclose(desk.contemplated.frame.position, desk.gizmo.position, atol=1e-9)
+        # The line from the port is labelled with its length: |(20, -10, 5)| mm.
+        assert desk.contemplated.distance_mm == pytest.approx(22.91, abs=0.2)
+        assert desk.contemplated.distance.text == f"{desk.contemplated.distance_mm:.1f} mm"
+        assert desk.contemplated.line.visible
         assert desk.gizmo.visible
 
 
@@ -307,3 +311,15 @@ def test_reconcile_ends_a_command_whose_end_event_was_lost() -> None:
     assert [v.id for v in history.recent()] == [11, 12]
     assert [v.id for v in history.live()] == [12] and history.live()[0].sender == "script"
     assert history.reconcile(records) == []  # ended once, announced once
+
+
+def test_the_force_arrow_ends_at_the_port_from_outside(console: ConsoleApp) -> None:
+    """The environment's force on the port is drawn ending at the port (on main it started there
+    and ran up into the tool for a press)."""
+    wait_for_state(console)
+    assert console.view is not None and console._state is not None
+    state = {**console._state, "wrench": [0.0, 0.0, 25.0, 0.0, 0.0, 0.0]}  # a press: pushed up
+    console.view.update(state)
+    tail, head = np.asarray(console.view.wrench.points)[0]
+    np.testing.assert_allclose(head, state["port"]["position"], atol=1e-9)
+    assert tail[2] < head[2] - 0.05  # from below, outside the tool (which runs up from the port)

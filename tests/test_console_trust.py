@@ -173,6 +173,7 @@ def test_a_queued_relative_command_is_drawn_relative_then_where_the_robot_resolv
     )
     assert commanded.get_attribute("data-resolved") == "0"
     assert "relative to the port at start" in commanded.inner_text()
+    assert float(commanded.get_attribute("data-distance") or "nan") == pytest.approx(40.0, abs=15.0)
     page.wait_for_function(
         "document.querySelector('#ptwl-commanded')?.dataset.resolved === '1'", timeout=15_000
     )

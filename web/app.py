@@ -264,6 +264,7 @@ class ConsoleApp:
             self.board.show_gains(state["gains"])
         with self.server.atomic():
             self.view.update(state)
+            self.board.show_scene_state(state["seq"], arrived)
         for desk in self.desks():
             desk.update_contemplated()
         self._count += 1
@@ -298,7 +299,8 @@ class ConsoleApp:
         if view is self._commanded and self.view is not None and self.board is not None:
             live = view.phase != "done" and view.target is not None
             self.view.show_commanded(view.target if live else None, view.resolved)
-            self.board.show_commanded(view)
+            marker = self.view.commanded if view.resolved else self.view.predicted
+            self.board.show_commanded(view, marker.distance_mm)
         self._show_command(view)
 
     def _announce_end(self, view: CommandView) -> None:

@@ -16,6 +16,9 @@ class Board:
         self.command_status = gui.add_html(_command_html(None), order=BOARD_ORDER)
         self.commanded = gui.add_html(_commanded_html(None), order=BOARD_ORDER + 0.5)
         self.gains = gui.add_html('<div id="ptwl-gains"></div>', order=BOARD_ORDER + 0.6)
+        # Which state the 3D scene shows, sent in the same atomic batch as the scene (tests and
+        # bench/console.py read it; the status bar shows the age on its own clock).
+        self.scene_state = gui.add_html(_scene_state_html(None, None), order=BOARD_ORDER + 0.7)
         with gui.add_folder("Force / torque", expand_by_default=True, order=BOARD_ORDER + 1):
             self.plots = WrenchPlots(gui, plot_window_s)
         with gui.add_folder("Commands", expand_by_default=True, order=BOARD_ORDER + 2):
@@ -29,6 +32,9 @@ class Board:
     def show_command(self, view: Any) -> None:
         self.command_status.content = _command_html(view)
 
+    def show_scene_state(self, seq: int, arrived: float) -> None:
+        self.scene_state.content = _scene_state_html(seq, arrived)
+
     def show_gains(self, gains: dict[str, Any] | None) -> None:
         """The stiffness and damping in force on the robot now (as its telemetry reports them)."""
         if gains is None:
@@ -38,9 +44,10 @@ class Board:
             f"<div style='font-size:0.8em'>gains on the robot now ({gains['frame']} axes):</div>{shown}"
         )
 
-    def show_commanded(self, view: Any) -> None:
-        """The commanded target the 3D marker shows (the last PTWL sent from this console)."""
-        self.commanded.content = _commanded_html(view)
+    def show_commanded(self, view: Any, distance_mm: float | None = None) -> None:
+        """The commanded target the 3D marker shows (the last PTWL sent from this console), and
+        how far it is from the port."""
+        self.commanded.content = _commanded_html(view, distance_mm)
 
 
 def _command_html(view: Any) -> str:
@@ -55,15 +62,21 @@ def _command_html(view: Any) -> str:
     )
 
 
-def _commanded_html(view: Any) -> str:
+def _commanded_html(view: Any, distance_mm: float | None = None) -> str:
     """Where the red marker is and how sure: predicted from the delayed port (a relative command
     resolves against the port where it starts), or resolved by the robot."""
     if view is None or view.target is None or view.phase == "done":
         return '<div id="ptwl-no-commanded"></div>'
     x, y, z = (1000.0 * float(v) for v in view.target[0])
     how = "resolved by the robot" if view.resolved else "relative to the port at start, predicted"
+    far = "" if distance_mm is None else f"; {distance_mm:.1f} mm from the port"
     return (
         f'<div id="ptwl-commanded" data-resolved="{int(view.resolved)}" data-local="{view.local}" '
+        f'data-distance="{"" if distance_mm is None else f"{distance_mm:.1f}"}" '
         f'style="padding:0 8px;color:#e03131">commanded target of PTWL {view.label}: '
-        f"({x:.1f}, {y:.1f}, {z:.1f}) mm, {how}</div>"
+        f"({x:.1f}, {y:.1f}, {z:.1f}) mm, {how}{far}</div>"
     )
+
+
+def _scene_state_html(seq: int | None, arrived: float | None) -> str:
+    return f'<i id="ptwl-scene" data-seq="{seq or ""}" data-arrived="{arrived or ""}"></i>'

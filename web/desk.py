@@ -9,6 +9,7 @@ import viser
 
 from web.checks import Check
 from web.defaults import ConsoleDefaults
+from web.markers import TargetMarker
 from web.panel import Panel
 from web.seat import ControlSeat, operator_name
 from web.targets import Pose, displacement_to, ptwl_target
@@ -37,10 +38,9 @@ class Desk:
         self._syncing_gizmo = False
         self.panel = Panel(client.gui, defaults, stiffness_presets, dither_presets)
         scene = client.scene
-        self.contemplated = scene.add_frame(
-            "/contemplated", axes_length=0.04, axes_radius=0.0015, origin_radius=0.007, origin_color=YELLOW
+        self.contemplated = TargetMarker(
+            scene, "contemplated", "contemplated", YELLOW, (0.0, 0.0, -0.09), opacity=0.55
         )
-        scene.add_icosphere("/contemplated/ghost", radius=0.012, color=YELLOW, opacity=0.35)
         self.gizmo = scene.add_transform_controls("/gizmo", scale=0.08, visible=False)
         panel = self.panel
         panel.take_control.on_click(lambda _: seat.take(client.client_id))
@@ -85,10 +85,9 @@ class Desk:
             self.update_contemplated(move_gizmo=True)
 
     def update_contemplated(self, move_gizmo: bool = False) -> None:
-        target = self.contemplated_target()
-        self.contemplated.visible = target is not None
-        if target is not None:
-            self.contemplated.position, self.contemplated.wxyz = target
+        port = self._port()
+        target = ptwl_target(port, *self.panel.ptwl_values()) if port is not None else None
+        self.contemplated.show(target, port[0] if port is not None else None)
         show = bool(self.panel.show_gizmo.value) and target is not None
         appearing = show and not self.gizmo.visible
         self.gizmo.visible = show

@@ -14,6 +14,7 @@ import numpy as np
 import viser
 
 from server.models import GeometryModel
+from web.markers import TargetMarker
 from web.meshes import MeshPart, body_parts
 from web.targets import Pose
 
@@ -42,21 +43,16 @@ class RobotView:
             origin_radius=0.004,
             origin_color=(255, 80, 80),
         )
-        scene.add_label("/attractor/label", "attractor", position=(0.0, 0.0, 0.012))
-        self.commanded = scene.add_frame(
-            "/commanded",
-            axes_length=0.04,
-            axes_radius=0.002,
-            origin_radius=0.008,
-            origin_color=RED,
-            visible=False,
+        # Labels sit apart: the attractor's above-left of its origin, the port's to its right, the
+        # commanded target's along its shaft (markers.py); none of them on another.
+        scene.add_label("/attractor/label", "attractor", position=(0.0, 0.0, 0.015), anchor="bottom-right")
+        scene.add_label("/port/label", "port", position=(0.0, 0.0, 0.015), anchor="top-left")
+        self.commanded = TargetMarker(scene, "commanded", "commanded", RED, (0.0, 0.0, -0.06))
+        self.predicted = TargetMarker(
+            scene, "predicted", "commanded: relative to port at start", RED, (0.0, 0.0, -0.06), wireframe=True
         )
-        scene.add_label("/commanded/label", "commanded", position=(0.0, 0.0, -0.02))
-        self.predicted = scene.add_frame("/predicted", show_axes=False, visible=False)
-        scene.add_icosphere("/predicted/outline", radius=0.012, color=RED, wireframe=True)
-        scene.add_label(
-            "/predicted/label", "commanded: relative to port at start", position=(0.0, 0.0, -0.02)
-        )
+        self._commanded: tuple[Pose | None, bool] = (None, False)
+        self._port: np.ndarray | None = None
         self.stale_label = scene.add_label(
             "/stale", "STALE", position=(0.0, 0.0, 0.9), font_screen_scale=2.0, visible=False
         )
@@ -106,11 +102,15 @@ class RobotView:
         port, attractor = state["port"], state["attractor"]
         self._place("/port", self.port, port["position"], port["quaternion"])
         self._place("/attractor", self.attractor, attractor["position"], attractor["quaternion"])
-        start = np.asarray(port["position"], dtype=float)
+        tip = np.asarray(port["position"], dtype=float)
         force = np.asarray(state["wrench"][0:3], dtype=float)
-        arrow = np.stack([start, start + force * self.arrow_m_per_n])[None]
+        # The environment's force on the port, drawn ending at the port: from outside the tool.
+        arrow = np.stack([tip - force * self.arrow_m_per_n, tip])[None]
         if self._moved("/wrench", arrow.ravel()):
             self.wrench.points = arrow
+        if self._moved("/port-line", tip):
+            self._port = tip
+            self.show_commanded(*self._commanded)
 
     def _moved(self, key: str, values: np.ndarray) -> bool:
         last = self._sent.get(key)
@@ -128,12 +128,11 @@ class RobotView:
     def show_commanded(self, target: Pose | None, resolved: bool = False) -> None:
         """The commanded target: solid where the robot resolved it, an outline where it is only
         predicted from the delayed port; hidden for None."""
+        self._commanded = (target, resolved)
         marker = self.commanded if resolved else self.predicted
         other = self.predicted if resolved else self.commanded
-        other.visible = False
-        marker.visible = target is not None
-        if target is not None:
-            marker.position, marker.wxyz = np.asarray(target[0]), np.asarray(target[1])
+        other.show(None, None)
+        marker.show(target, self._port)
 
     def set_stale(self, stale: bool, label: str = "STALE") -> None:
         """Grey the robot out (and say so) while its state cannot be trusted; colour it back after."""

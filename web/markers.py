@@ -1,0 +1,80 @@
+"""Intent markers the operator can see: a tool-shaped target (not a 12 mm dot), a line from the
+port to it with the distance written on it, and labels that are drawn over any fixture
+(viser draws labels without a depth test) and placed so they do not overlap.
+
+A target pose is the port's: the marker's tip sits on it and its shaft runs back along -z, the
+way the real tool extends behind its port.
+"""
+
+import numpy as np
+import trimesh
+import viser
+
+TIP_RADIUS_M = 0.008
+SHAFT_RADIUS_M = 0.012
+SHAFT_LENGTH_M = 0.09
+
+
+def tool_mesh() -> trimesh.Trimesh:
+    """A probe-like tool in its port frame: ball tip at the origin, shaft along -z."""
+    tip = trimesh.creation.icosphere(subdivisions=2, radius=TIP_RADIUS_M)
+    shaft = trimesh.creation.cylinder(radius=SHAFT_RADIUS_M, height=SHAFT_LENGTH_M, sections=20)
+    shaft.apply_translation((0.0, 0.0, -TIP_RADIUS_M - SHAFT_LENGTH_M / 2.0))
+    mesh = trimesh.util.concatenate([tip, shaft])
+    assert isinstance(mesh, trimesh.Trimesh)
+    return mesh
+
+
+class TargetMarker:
+    """A tool-shaped target with a label, and a port-to-target line whose label gives the distance."""
+
+    def __init__(
+        self,
+        scene: viser.SceneApi,
+        name: str,
+        label: str,
+        color: tuple[int, int, int],
+        label_offset_m: tuple[float, float, float],
+        opacity: float | None = None,
+        wireframe: bool = False,
+    ) -> None:
+        mesh = tool_mesh()
+        self.frame = scene.add_frame(
+            f"/{name}", show_axes=True, axes_length=0.04, axes_radius=0.0015, visible=False
+        )
+        scene.add_mesh_simple(
+            f"/{name}/tool",
+            np.asarray(mesh.vertices, dtype=np.float32),
+            np.asarray(mesh.faces, dtype=np.uint32),
+            color=color,
+            opacity=opacity,
+            wireframe=wireframe,
+        )
+        self.label = scene.add_label(f"/{name}/label", label, position=label_offset_m, anchor="center-left")
+        self.line = scene.add_line_segments(
+            f"/{name}_line",
+            np.zeros((1, 2, 3)),
+            color,
+            thickness=2.0,
+            thickness_units="screen",
+            visible=False,
+        )
+        self.distance = scene.add_label(f"/{name}_distance", "", visible=False, anchor="bottom-center")
+        self.distance_mm: float | None = None
+
+    def show(self, target: tuple[np.ndarray, np.ndarray] | None, port: np.ndarray | None) -> None:
+        """At `target` (position, wxyz), with the line from `port`; hidden for None."""
+        visible = target is not None
+        self.frame.visible = visible
+        self.line.visible = visible and port is not None
+        self.distance.visible = visible and port is not None
+        if target is None:
+            self.distance_mm = None
+            return
+        position = np.asarray(target[0], dtype=float)
+        self.frame.position, self.frame.wxyz = position, np.asarray(target[1], dtype=float)
+        if port is not None:
+            self.distance_mm = 1000.0 * float(np.linalg.norm(position - port))
+            self.line.points = np.stack([port, position])[None]
+            self.distance.position = (port + position) / 2.0
+            self.distance.text = f"{self.distance_mm:.1f} mm"
