@@ -21,6 +21,7 @@ import viser
 
 from robot_sim.gains import Gains
 from server.client import RobotClient, RobotError
+from server.models import GeometryModel
 from web.board import Board
 from web.checks import Check, check_command
 from web.defaults import load_defaults
@@ -112,7 +113,6 @@ class ConsoleApp:
         self._stiffness_presets = presets
         self.scene_name = geometry.scene
         self.view = RobotView(self.server, self.defaults.wrench_arrow_m_per_n)
-        self.view.load(geometry)
         self.bar = StatusBar(self.server.gui, self._bar_inputs, self._on_level)
         scene_names = [s.name for s in scene_list]
         self.board = Board(self.server.gui, scene_names, geometry.scene, self.defaults.plot_s)
@@ -120,6 +120,8 @@ class ConsoleApp:
         self.board.reset_scene.on_click(lambda _: self.reset_scene())
         self.seat.on_change(self._seat_changed)
         self.server.on_client_connect(self._client_connected)
+        # The meshes go out after the panels: a browser shows Send before it has drawn the scene.
+        self._reload_geometry(geometry)
         self.server.on_client_disconnect(self._client_disconnected)
         self.feed = TelemetryFeed(self.client, self._on_state, self._on_command, self._on_link)
         self.link_poller = LinkPoller(self.robot_url, self.token, self._on_link_profile)
@@ -238,9 +240,10 @@ class ConsoleApp:
         except (RobotError, httpx.HTTPError) as err:
             self._notify("Scene reset failed", str(err), "red")
 
-    def _reload_geometry(self) -> None:
+    def _reload_geometry(self, geometry: GeometryModel | None = None) -> None:
+        """The one path that (re)draws the scene's bodies: at start, after a reset, on a new scene."""
         assert self.view is not None
-        geometry = self.client.geometry()
+        geometry = geometry or self.client.geometry()
         with self.server.atomic():
             self.view.load(geometry)
         self.scene_name = geometry.scene

@@ -34,6 +34,8 @@ class RobotView:
         self._sent: dict[str, np.ndarray] = {}
         scene = server.scene
         scene.set_up_direction("+z")
+        # Without a GPU (software WebGL) shadow maps cost most of every frame; the lights stay.
+        scene.configure_default_lights(enabled=True, cast_shadow=False)
         scene.add_grid("/floor", width=2.0, height=2.0, cell_size=0.1, section_size=0.5)
         self.port = scene.add_frame("/port", axes_length=0.05, axes_radius=0.004, origin_radius=0.006)
         self.attractor = scene.add_frame(
@@ -87,6 +89,8 @@ class RobotView:
                     np.asarray(part.mesh.faces, dtype=np.uint32),
                     color=STALE_GREY if self.stale else part.rgb,
                     opacity=part.opacity if part.opacity < 1.0 else None,
+                    cast_shadow=False,  # see configure_default_lights above
+                    receive_shadow=False,
                 )
                 self._meshes.append((handle, part))
 

@@ -15,7 +15,7 @@ from typing import Any, Literal
 
 import viser
 
-TICK_S = 0.1  # the bar's refresh period: 10 updates/s whether or not telemetry arrives
+TICK_S = 0.08  # the bar's refresh period: 12.5 updates/s whether or not telemetry arrives
 LATE_AFTER_RTT_S = 1.0  # amber: state older than the round trip plus this
 STALE_AFTER_RTT_S = 5.0  # red: older than the round trip plus this, or the link is down
 BAR_WIDTH_PX, BAR_HEIGHT_PX = 500, 215
