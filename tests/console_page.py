@@ -13,7 +13,7 @@ from ptwl.launcher import ServiceProcess
 PORT_TEXT = re.compile(r"port \((-?[\d.]+), (-?[\d.]+), (-?[\d.]+)\) mm")
 
 
-def open_console(browser: object, url: str, control: bool = True, viewport: tuple[int, int] = (1500, 950)):  # type: ignore[no-untyped-def]
+def open_console(browser: object, url: str, control: bool = True, viewport: tuple[int, int] = (1100, 720)):  # type: ignore[no-untyped-def]
     """A page on the console; with `control`, it takes control (one commander at a time)."""
     page = browser.new_page(viewport={"width": viewport[0], "height": viewport[1]})  # type: ignore[attr-defined]
     page.goto(url)

@@ -69,7 +69,7 @@ def test_console_loads_with_the_three_tabs_and_the_preset_dropdown(browser, stac
     page.close()
 
 
-def test_ptwl_typed_and_sent_from_the_page_reaches_its_goal(browser, stack) -> None:  # type: ignore[no-untyped-def]
+def test_ptwl_typed_and_sent_from_the_page_reaches_its_goal_or_warns_first(browser, stack) -> None:  # type: ignore[no-untyped-def]
     reset(stack[1])
     page = open_console(browser, stack[2].url)
     start = port_mm(page)
@@ -81,12 +81,7 @@ def test_ptwl_typed_and_sent_from_the_page_reaches_its_goal(browser, stack) -> N
     end = port_mm(page)
     assert end[2] - start[2] == pytest.approx(20.0, abs=2.0)
     assert "PTWL" in page.locator("#ptwl-command").inner_text()
-    page.close()
-
-
-def test_a_fast_approach_is_sent_with_a_warning_on_the_page(browser, stack) -> None:  # type: ignore[no-untyped-def]
-    reset(stack[1])
-    page = open_console(browser, stack[2].url)
+    # A fast approach is accepted with the robot's warning on the page.
     set_fields(page, "Translation [mm]", 0, 0, -100)  # 100 mm in 1 s: B v = 100 N against 20 N
     set_fields(page, "Duration [s]", 1.0)
     previous = send(page, "Send cmd")
@@ -153,20 +148,6 @@ def test_two_second_round_trip_shows_intent_at_once_and_the_robot_later(browser,
     assert age == pytest.approx(1.0, abs=0.15)  # "robot state is ~1 s old"
 
 
-def test_a_command_from_one_browser_appears_in_another(browser, stack) -> None:  # type: ignore[no-untyped-def]
-    reset(stack[1])
-    first = open_console(browser, stack[2].url)
-    second = open_console(browser, stack[2].url, control=False)
-    previous = send(first, "Send cmd")
-    wait_status(first, "goal_reached", after=previous)
-    # Propagation, not speed (bench/console.py measures that): two pages drawing WebGL in
-    # software on a loaded 2-core CI machine fell behind 5 s once.
-    wait_status(second, "goal_reached", timeout_s=20.0, after=previous)
-    assert command_id(first) == command_id(second) != previous
-    first.close()
-    second.close()
-
-
 def test_console_says_when_the_robot_restarts_and_reconnects(browser) -> None:  # type: ignore[no-untyped-def]
     server_port = free_port()
     with (
@@ -187,23 +168,6 @@ def test_console_says_when_the_robot_restarts_and_reconnects(browser) -> None:  
             # The cut-off command is lost, never shown as a later command's result.
             assert command_id(page) == cut_off and command_status(page) == "lost"
             set_fields(page, "Duration [s]", 1.0)
-            before = send(page, "Send cmd")
-            wait_status(page, "goal_reached", after=before)
-        page.close()
-
-
-def test_console_says_when_the_link_restarts_and_reconnects(browser) -> None:  # type: ignore[no-untyped-def]
-    proxy_port = free_port()
-    with (
-        running_server("--scene", "free_space") as robot,
-        running_proxy(robot.url, port=proxy_port) as link,
-        running_console(link.url) as console,
-    ):
-        page = open_console(browser, console.url)
-        link.stop()
-        wait_text(page, "no telemetry", 15.0)
-        with running_proxy(robot.url, port=proxy_port):
-            wait_text(page, "robot state #", 20.0)
             before = send(page, "Send cmd")
             wait_status(page, "goal_reached", after=before)
         page.close()

@@ -87,19 +87,6 @@ def test_the_age_keeps_counting_through_a_blackout_and_turns_amber_then_red(brow
     assert "STALE" in stale_text
 
 
-def test_a_dead_console_shows_on_the_page_itself(browser) -> None:  # type: ignore[no-untyped-def]
-    """On main a page whose console had died still said '0.00 s old - connected'."""
-    with running_server("--scene", "free_space") as robot, running_proxy(robot.url) as link:
-        with running_console(link.url) as console:
-            page = open_console(browser, console.url, control=False)
-            time.sleep(3.0)
-            assert not page.locator("#ptwl-dead").is_visible()  # alive: the countdown keeps restarting
-        t0 = time.monotonic()
-        page.locator("#ptwl-dead").wait_for(state="visible", timeout=8_000)
-        assert time.monotonic() - t0 < 5.0
-        page.close()
-
-
 def test_two_tabs_have_their_own_fields_and_only_the_one_in_control_sends(browser, stack, calm) -> None:  # type: ignore[no-untyped-def]
     """On main tab B showed (25, 7, 0) while C showed (25, 93.3, -15), and Send in C sent B's."""
     robot, _, console = stack
@@ -207,11 +194,19 @@ def test_task_progress_and_success_show_in_the_bar(browser, stack, calm) -> None
 
 
 def test_stop_shows_pending_until_the_robot_confirms(browser, stack, calm) -> None:  # type: ignore[no-untyped-def]
-    """On main STOP under delay showed nothing for 3.9 s."""
+    """On main STOP under delay showed nothing for 3.9 s; on a 1366x768 screen STOP and the status
+    line scrolled away, and the open stiffness dropdown covered STOP."""
     _, link, console = stack
-    page = open_console(browser, console.url, control=False)  # anyone may stop
+    page = open_console(browser, console.url, control=False, viewport=(1366, 768))  # anyone may stop
     set_link(link, uplink=1.5, downlink=1.5)
-    page.get_by_role("button", name="STOP").click()
+    page.evaluate("document.querySelector('#ptwl-scene').scrollIntoView()")  # the panel's bottom
+    inputs_for(page, "Stiffness preset (PTWL)").first.click()  # and its dropdown open
+    page.get_by_role("option", name="soft").wait_for()
+    stop = page.get_by_role("button", name="STOP")
+    box = stop.bounding_box()
+    assert box is not None and box["y"] >= 0 and box["y"] + box["height"] <= 768  # on screen
+    assert page.locator("#ptwl-telemetry").is_visible()
+    stop.click(timeout=3_000)  # fails if anything covers it
     page.wait_for_function("document.querySelector('#ptwl-stop')?.dataset.phase === 'pending'", timeout=1_000)
     t0 = time.monotonic()
     assert "waiting for the robot" in page.locator("#ptwl-stop").inner_text()
@@ -223,8 +218,9 @@ def test_stop_shows_pending_until_the_robot_confirms(browser, stack, calm) -> No
     assert confirmed_after >= 2.0  # it waited for the round trip, and said so meanwhile
 
 
-def test_a_stop_that_fails_stays_on_screen(browser) -> None:  # type: ignore[no-untyped-def]
-    """On main the failure toast vanished after 6 s."""
+def test_a_stop_that_fails_stays_on_screen_and_a_dead_console_shows(browser) -> None:  # type: ignore[no-untyped-def]
+    """On main the failure toast vanished after 6 s, and a page whose console had died still said
+    '0.00 s old - connected'."""
     with (
         running_server("--scene", "free_space") as robot,
         running_proxy(robot.url) as link,
@@ -240,6 +236,11 @@ def test_a_stop_that_fails_stays_on_screen(browser) -> None:  # type: ignore[no-
         stop = page.locator("#ptwl-stop")
         assert stop.get_attribute("data-phase") == "failed" and stop.is_visible()
         assert "NOT CONFIRMED" in stop.inner_text()
+        assert not page.locator("#ptwl-dead").is_visible()  # the console is alive: no banner
+        console.stop()
+        t0 = time.monotonic()
+        page.locator("#ptwl-dead").wait_for(state="visible", timeout=8_000)
+        assert time.monotonic() - t0 < 5.0
         page.close()
 
 
