@@ -311,6 +311,11 @@ def test_reconcile_ends_a_command_whose_end_event_was_lost() -> None:
     assert [v.id for v in history.recent()] == [11, 12]
     assert [v.id for v in history.live()] == [12] and history.live()[0].sender == "script"
     assert history.reconcile(records) == []  # ended once, announced once
+    # Records read from a run of the robot that has since restarted change nothing.
+    history.robot_instance("aaaa0001")
+    history.robot_instance("bbbb0002")  # the live dither (12) is now lost
+    stale = [{"id": 12, "type": "dither", "status": "running", "instance": "aaaa0001"}]
+    assert history.reconcile(stale) == [] and [v.status for v in history.recent()] == ["lost"]
 
 
 def test_the_force_arrow_ends_at_the_port_from_outside(console: ConsoleApp) -> None:

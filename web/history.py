@@ -111,6 +111,8 @@ class CommandHistory:
         ended = []
         with self._lock:
             for record in records:
+                if self._instance is not None and record.get("instance", self._instance) != self._instance:
+                    continue  # read from a run of the robot that has since restarted: stale
                 view = self._by_id.get(int(record["id"]))
                 if view is None:
                     if record["status"] == "done":
