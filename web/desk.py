@@ -39,7 +39,13 @@ class Desk:
         self.panel = Panel(client.gui, defaults, stiffness_presets, dither_presets)
         scene = client.scene
         self.contemplated = TargetMarker(
-            scene, "contemplated", "contemplated", YELLOW, (0.0, 0.0, -0.09), opacity=0.55
+            scene,
+            "contemplated",
+            "contemplated",
+            YELLOW,
+            (0.0, 0.0, -0.09),
+            opacity=0.55,
+            distance_anchor="top-right",  # the commanded line's length is written bottom-left
         )
         self.gizmo = scene.add_transform_controls("/gizmo", scale=0.08, visible=False)
         panel = self.panel

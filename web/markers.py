@@ -6,10 +6,13 @@ A target pose is the port's: the marker's tip sits on it and its shaft runs back
 way the real tool extends behind its port.
 """
 
+from typing import Literal
+
 import numpy as np
 import trimesh
 import viser
 
+Anchor = Literal["bottom-left", "bottom-center", "top-right"]
 TIP_RADIUS_M = 0.008
 SHAFT_RADIUS_M = 0.012
 SHAFT_LENGTH_M = 0.09
@@ -37,6 +40,7 @@ class TargetMarker:
         label_offset_m: tuple[float, float, float],
         opacity: float | None = None,
         wireframe: bool = False,
+        distance_anchor: Anchor = "bottom-center",
     ) -> None:
         mesh = tool_mesh()
         self.frame = scene.add_frame(
@@ -59,7 +63,7 @@ class TargetMarker:
             thickness_units="screen",
             visible=False,
         )
-        self.distance = scene.add_label(f"/{name}_distance", "", visible=False, anchor="bottom-center")
+        self.distance = scene.add_label(f"/{name}_distance", "", visible=False, anchor=distance_anchor)
         self.distance_mm: float | None = None
 
     def show(self, target: tuple[np.ndarray, np.ndarray] | None, port: np.ndarray | None) -> None:

@@ -49,9 +49,18 @@ class RobotView:
         # commanded target's along its shaft (markers.py); none of them on another.
         scene.add_label("/attractor/label", "attractor", position=(0.0, 0.0, 0.015), anchor="bottom-right")
         scene.add_label("/port/label", "port", position=(0.0, 0.0, 0.015), anchor="top-left")
-        self.commanded = TargetMarker(scene, "commanded", "commanded", RED, (0.0, 0.0, -0.06))
+        label_at = (0.0, 0.0, -0.06)
+        self.commanded = TargetMarker(
+            scene, "commanded", "commanded", RED, label_at, distance_anchor="bottom-left"
+        )
         self.predicted = TargetMarker(
-            scene, "predicted", "commanded: relative to port at start", RED, (0.0, 0.0, -0.06), wireframe=True
+            scene,
+            "predicted",
+            "commanded: relative to port at start",
+            RED,
+            label_at,
+            wireframe=True,
+            distance_anchor="bottom-left",
         )
         self._commanded: tuple[Pose | None, bool] = (None, False)
         self._port: np.ndarray | None = None

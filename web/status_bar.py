@@ -79,10 +79,11 @@ class StatusBar:
                 "STOP", color="red", hint="abort the running command, drop the queue, hold (anyone may stop)"
             )
             self.stop_html = gui.add_html(_stop_html(self._stop_state))
-        # Over the 3D view's top right, beside the docked control panel: it never scrolls away, and
-        # no dropdown of the control panel can cover STOP.
+        # Over the 3D view's bottom right, beside the docked control panel (notifications stack
+        # top left, the arm stands mid-view): it never scrolls away, and no dropdown of the
+        # control panel can cover STOP.
         gui.main_panel.dock_right()
-        self.panel.float(x=-12, y=12, width=BAR_WIDTH_PX, height=BAR_HEIGHT_PX)
+        self.panel.float(x=-12, y=-12, width=BAR_WIDTH_PX, height=BAR_HEIGHT_PX)
         self.ticks = 0
         self._closed = threading.Event()
         self._thread = threading.Thread(target=self._run, name="ptwl-status-bar", daemon=True)
@@ -159,7 +160,7 @@ def _task_html(task: dict[str, Any] | None) -> str:
     if not task:
         return '<div id="ptwl-task" data-success="" data-progress="">task: unknown</div>'
     progress, target, unit = task["progress"], task["target"], task["unit"]
-    shown = "—" if progress is None else f"{progress:.1f}".replace("-0.0", "0.0")
+    shown = "—" if progress is None else f"{progress + 0.0:.4g}"  # + 0.0: never "-0"
     fraction = 0.0 if progress is None or target == 0 else max(0.0, min(1.0, progress / target))
     badge = (
         '<span style="background:#2f9e44;color:white;padding:0 6px;border-radius:4px">SUCCESS</span>'
