@@ -285,9 +285,14 @@ def values(page, label: str) -> list[float]:  # type: ignore[no-untyped-def]
     return [float(boxes.nth(i).input_value()) for i in range(boxes.count())]
 
 
+CLEARED = """[...document.evaluate("//*[normalize-space(text())='Translation [mm]']/ancestor::*[.//input][1]",
+  document, null, 9, null).singleNodeValue.querySelectorAll('input')].every(i => Number(i.value) === 0)"""
+
+
 def test_checks_before_send_and_defaults_that_do_not_bite(browser, stack, calm) -> None:  # type: ignore[no-untyped-def]
-    """On main: translation defaulted to (0, 0, 10) mm, the watchdog stayed 7 s so any duration
-    over 7 s was refused a round trip later, and limits were checked only by the robot."""
+    """On main: translation defaulted to (0, 0, 10) mm, Enter did not send, the watchdog stayed
+    7 s so any duration over 7 s was refused a round trip later, and limits were checked only by
+    the robot."""
     robot, _, console = stack
     page = open_console(browser, console.url)
     assert values(page, "Translation [mm]") == [0.0, 0.0, 0.0]
@@ -300,6 +305,16 @@ def test_checks_before_send_and_defaults_that_do_not_bite(browser, stack, calm) 
     set_fields(page, "Force threshold [N]", 20)
     page.wait_for_function("document.querySelector('#ptwl-check-ptwl')?.dataset.valid === '1'", timeout=5e3)
     assert page.get_by_role("button", name="Send cmd").is_enabled()
+    # Keys (once the focus has left the field): Escape clears the target, Enter sends.
+    set_fields(page, "Translation [mm]", 0, 0, -5)
+    page.evaluate("document.activeElement.blur()")
+    page.keyboard.press("Escape")
+    page.wait_for_function(CLEARED, timeout=5e3)
+    set_fields(page, "Translation [mm]", 0, 0, -5)
+    page.evaluate("document.activeElement.blur()")
+    before = command_id(page)
+    page.keyboard.press("Enter")
+    wait_status(page, "goal_reached", after=before)
     # A fast approach: the robot's impact rule, before Send.
     set_fields(page, "Translation [mm]", 0, 0, -100)
     set_fields(page, "Duration [s]", 0.5)

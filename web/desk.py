@@ -59,6 +59,15 @@ class Desk:
             for field in panel.fields(behavior):
                 field.on_update(lambda _, b=behavior: self.recheck(b))
         self.gizmo.on_update(lambda _: self._gizmo_moved())
+        # Keyboard (viser's command palette hotkeys; like any page hotkey they act once the focus
+        # has left a text field, e.g. after Tab): Enter sends the PTWL as Send would, Escape
+        # clears the contemplated target back to "no move".
+        send_key = client.gui.add_command("Send PTWL", description="as the Send cmd button", hotkey="enter")
+        send_key.on_trigger(lambda _: self._send_from_key(send))
+        clear_key = client.gui.add_command(
+            "Clear target", description="translation and rotation to 0", hotkey="escape"
+        )
+        clear_key.on_trigger(lambda _: self.clear_contemplated())
         self._check = check
         self.seat_changed()
         for behavior in ("ptwl", "rwe", "dither"):
@@ -67,6 +76,15 @@ class Desk:
     @property
     def client_id(self) -> int:
         return self.client.client_id
+
+    def _send_from_key(self, send: SendFn) -> None:
+        if not self.panel.send_ptwl.disabled:  # the same rule as the button: in control, valid
+            send(self, "ptwl", self.params("ptwl"))
+
+    def clear_contemplated(self) -> None:
+        self.panel.set_ptwl_displacement(np.zeros(3), np.zeros(3))
+        self.fields_changed()
+        self.recheck("ptwl")
 
     def seat_changed(self) -> None:
         holder = self._seat.holder
