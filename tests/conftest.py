@@ -5,7 +5,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from ptwl.launcher import ServiceProcess, running_server
+from ptwl.launcher import ServiceProcess, running_console, running_proxy, running_server
 from server.client import RobotClient
 from web.browser import chromium_available, launch
 
@@ -22,6 +22,17 @@ def robot(server: ServiceProcess) -> Iterator[RobotClient]:
     with RobotClient(server.url) as client:
         client.reset_scene("free_space")
         yield client
+
+
+@pytest.fixture(scope="module")
+def stack() -> Iterator[tuple[ServiceProcess, ServiceProcess, ServiceProcess]]:
+    """Robot (free_space), link and console, for one module's browser tests."""
+    with (
+        running_server("--scene", "free_space") as robot,
+        running_proxy(robot.url) as link,
+        running_console(link.url) as console,
+    ):
+        yield robot, link, console
 
 
 @pytest.fixture(scope="module")

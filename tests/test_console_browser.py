@@ -11,13 +11,12 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import httpx
 import pytest
 
-from ptwl.launcher import ServiceProcess, free_port, running_console, running_proxy, running_server
+from ptwl.launcher import free_port, running_console, running_proxy, running_server
 from ptwl.up import RestartBudget
 from tests.console_page import (
     command_id,
@@ -35,16 +34,6 @@ from tests.console_page import (
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
 ARTIFACTS = Path(__file__).resolve().parent.parent / "artifacts"
-
-
-@pytest.fixture(scope="module")
-def stack() -> Iterator[tuple[ServiceProcess, ServiceProcess, ServiceProcess]]:
-    with (
-        running_server("--scene", "free_space") as robot,
-        running_proxy(robot.url) as link,
-        running_console(link.url) as console,
-    ):
-        yield robot, link, console
 
 
 def test_console_loads_with_the_three_tabs_and_the_preset_dropdown(browser, stack) -> None:  # type: ignore[no-untyped-def]

@@ -16,16 +16,6 @@ from tests.console_page import command_id, inputs_for, open_console, port_mm, se
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
 
-@pytest.fixture(scope="module")
-def stack() -> Iterator[tuple[ServiceProcess, ServiceProcess, ServiceProcess]]:
-    with (
-        running_server("--scene", "free_space") as robot,
-        running_proxy(robot.url) as link,
-        running_console(link.url) as console,
-    ):
-        yield robot, link, console
-
-
 def set_link(link: ServiceProcess, **profile: object) -> None:
     """PUT merges into the link's profile: name every field a test uses, blackouts included."""
     body = {"uplink": 0.0, "downlink": 0.0, "blackouts": [], **profile}
