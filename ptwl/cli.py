@@ -78,7 +78,7 @@ def cmd_up(args: argparse.Namespace) -> int:
 
 def cmd_console(args: argparse.Namespace) -> int:
     # Imported here: only this command needs viser.
-    from server.config import is_loopback
+    from guard.access import is_loopback
     from web.cli import run_console
 
     if not is_loopback(args.host):

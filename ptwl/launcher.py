@@ -35,9 +35,7 @@ class ServiceProcess:
         return int(self.url.rsplit(":", 1)[1])
 
     def stop(self, sig: int = signal.SIGINT, timeout: float = 15.0) -> int:
-        if self.process.poll() is None:
-            self.process.send_signal(sig)
-        return self.process.wait(timeout)
+        return _stop(self.process, sig, timeout)
 
 
 @contextmanager
@@ -129,11 +127,12 @@ def running(
         _stop(server.process)
 
 
-def _stop(process: "subprocess.Popen[str]", timeout: float = 15.0) -> None:
+def _stop(process: "subprocess.Popen[str]", sig: int = signal.SIGINT, timeout: float = 15.0) -> int:
+    """Signal a child and wait for it; kill it if it has not exited within `timeout`. Its exit code."""
     if process.poll() is None:
-        process.send_signal(signal.SIGINT)
-        try:
-            process.wait(timeout)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
+        process.send_signal(sig)
+    try:
+        return process.wait(timeout)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        return process.wait()

@@ -56,7 +56,7 @@ class Child:
         return self.process
 
     def stop(self) -> None:
-        if self.process is not None and self.process.process.poll() is None:
+        if self.process is not None:
             self.process.stop()
 
 

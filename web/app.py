@@ -370,7 +370,7 @@ class ConsoleApp:
         rtt = self.link_poller.rtt_s if self.link_poller is not None else 0.0
         return BarInputs(state, arrived, self._link_up, self._link_text, rtt, command, self._restart_note)
 
-    def _on_level(self, level: Level, age: float | None) -> None:
+    def _on_level(self, level: Level) -> None:
         if self.view is not None:
             self.view.set_stale(level == "stale", "STALE: link down" if not self._link_up else "STALE")
 

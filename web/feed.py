@@ -1,7 +1,6 @@
 """The telemetry feed: one background thread reading the robot's WebSocket through the link,
 reconnecting by itself when the link or the robot goes away."""
 
-import threading
 import time
 from collections.abc import Callable
 from typing import Any
@@ -9,12 +8,13 @@ from typing import Any
 from websockets.exceptions import ConnectionClosed, InvalidStatus
 
 from server.client import RobotClient
+from web.worker import Worker
 
 RECONNECT_S = 1.0
 RECEIVE_TIMEOUT_S = 0.5  # how often a quiet feed checks whether it should stop
 
 
-class TelemetryFeed:
+class TelemetryFeed(Worker):
     def __init__(
         self,
         client: RobotClient,
@@ -26,30 +26,17 @@ class TelemetryFeed:
         self._on_state = on_state
         self._on_command = on_command
         self._on_link = on_link
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="ptwl-telemetry", daemon=True)
+        # close() returns within one receive timeout (or one reconnect wait).
+        super().__init__("ptwl-telemetry", join_timeout_s=RECEIVE_TIMEOUT_S + RECONNECT_S + 1.0)
         self.connected = False
         self.reconnects = 0
 
-    def start(self) -> None:
-        self._thread.start()
-
-    def close(self) -> None:
-        """Stop reading; the thread ends within one receive timeout."""
-        self._stop.set()
-        if self._thread.is_alive():
-            self._thread.join(timeout=RECEIVE_TIMEOUT_S + RECONNECT_S + 1.0)
-
-    @property
-    def running(self) -> bool:
-        return self._thread.is_alive()
-
     def _run(self) -> None:
-        while not self._stop.is_set():
+        while not self._closed.is_set():
             try:
                 for message in self._client.telemetry(open_timeout=5.0, idle_s=RECEIVE_TIMEOUT_S):
                     arrived = time.time()
-                    if self._stop.is_set():
+                    if self._closed.is_set():
                         return
                     if message["type"] == "idle":
                         continue
@@ -67,7 +54,7 @@ class TelemetryFeed:
                 self.reconnects += 1
             self.connected = False
             self._on_link(f"no telemetry: {reason}; reconnecting")
-            self._stop.wait(RECONNECT_S)
+            self._closed.wait(RECONNECT_S)
 
 
 def plain_reason(err: BaseException) -> str:

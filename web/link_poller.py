@@ -1,38 +1,25 @@
 """The link's own profile (GET /_link/profile, local to the proxy and never delayed), polled so
 the console knows the round trip it is working across; stoppable."""
 
-import threading
 from collections.abc import Callable
 from typing import Any
 
 import httpx
 
 from guard.access import bearer_header
+from web.worker import Worker
 
 POLL_S = 2.0
 
 
-class LinkPoller:
+class LinkPoller(Worker):
     def __init__(self, robot_url: str, token: str | None, on_text: Callable[[str], None]) -> None:
         self._url = robot_url + "/_link/profile"
         self._headers = bearer_header(token)
         self._on_text = on_text
         self.rtt_s = 0.0
         self.profile: dict[str, Any] | None = None
-        self._closed = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="ptwl-link-profile", daemon=True)
-
-    def start(self) -> None:
-        self._thread.start()
-
-    def close(self) -> None:
-        self._closed.set()
-        if self._thread.is_alive():
-            self._thread.join(timeout=POLL_S + 1.0)
-
-    @property
-    def running(self) -> bool:
-        return self._thread.is_alive()
+        super().__init__("ptwl-link-profile", join_timeout_s=POLL_S + 1.0)
 
     def _run(self) -> None:
         while not self._closed.is_set():

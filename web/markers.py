@@ -13,6 +13,7 @@ import trimesh
 import viser
 
 Anchor = Literal["bottom-left", "bottom-center", "top-right"]
+MOVE_EPSILON = 1e-5  # [m] and quaternion units: below this a pose is not re-sent
 TIP_RADIUS_M = 0.008
 SHAFT_RADIUS_M = 0.012
 SHAFT_LENGTH_M = 0.09
@@ -65,9 +66,22 @@ class TargetMarker:
         )
         self.distance = scene.add_label(f"/{name}_distance", "", visible=False, anchor=distance_anchor)
         self.distance_mm: float | None = None
+        self._shown: np.ndarray | None = None  # (target, port) as last sent; None: hidden
 
     def show(self, target: tuple[np.ndarray, np.ndarray] | None, port: np.ndarray | None) -> None:
-        """At `target` (position, wxyz), with the line from `port`; hidden for None."""
+        """At `target` (position, wxyz), with the line from `port`; hidden for None. Called on
+        every telemetry state: what has not moved is not re-sent (each assignment is a message)."""
+        key = None
+        if target is not None:
+            where = port if port is not None else np.full(3, np.nan)
+            key = np.concatenate([np.asarray(target[0], float), np.asarray(target[1], float), where])
+        last, self._shown = self._shown, key
+        if (key is None and last is None) or (
+            key is not None
+            and last is not None
+            and bool(np.allclose(key, last, rtol=0.0, atol=MOVE_EPSILON, equal_nan=True))
+        ):
+            return
         visible = target is not None
         self.frame.visible = visible
         self.line.visible = visible and port is not None

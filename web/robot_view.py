@@ -14,11 +14,10 @@ import numpy as np
 import viser
 
 from server.models import GeometryModel
-from web.markers import TargetMarker
+from web.markers import MOVE_EPSILON, TargetMarker
 from web.meshes import MeshPart, body_parts
 from web.targets import Pose
 
-MOVE_EPSILON = 1e-5  # [m] and quaternion units: below this a pose is not re-sent
 RED = (224, 49, 49)
 STALE_GREY = (150, 150, 150)
 FORCE_COLOR = (230, 119, 0)

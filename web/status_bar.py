@@ -7,13 +7,14 @@ frozen "1.50 s old - connected".
 """
 
 import html
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Literal
 
 import viser
+
+from web.worker import Worker
 
 TICK_S = 0.08  # the bar's refresh period: 12.5 updates/s whether or not telemetry arrives
 LATE_AFTER_RTT_S = 1.0  # amber: state older than the round trip plus this
@@ -61,99 +62,78 @@ class StopState:
     text: str = ""
 
 
-class StatusBar:
+class StatusBar(Worker):
     def __init__(
         self,
         gui: viser.GuiApi,
         inputs: Callable[[], BarInputs],
-        on_level: Callable[[Level, float | None], None],
+        on_level: Callable[[Level], None],
     ) -> None:
         self._inputs = inputs
         self._on_level = on_level
-        self._stop_state = StopState()
-        self._lock = threading.Lock()
         self.panel = gui.add_panel()
         with self.panel.add_tab("Robot status"):
-            self.html = gui.add_html(self._render(inputs(), time.time()))
+            self.html = gui.add_html(_render(inputs(), *_judge(inputs(), time.time())))
             self.stop = gui.add_button(
                 "STOP", color="red", hint="abort the running command, drop the queue, hold (anyone may stop)"
             )
-            self.stop_html = gui.add_html(_stop_html(self._stop_state))
+            self.stop_html = gui.add_html(_stop_html(StopState()))
         # Over the 3D view's bottom right, beside the docked control panel (notifications stack
         # top left, the arm stands mid-view): it never scrolls away, and no dropdown of the
         # control panel can cover STOP.
         gui.main_panel.dock_right()
         self.panel.float(x=-12, y=-12, width=BAR_WIDTH_PX, height=BAR_HEIGHT_PX)
-        self.ticks = 0
-        self._closed = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="ptwl-status-bar", daemon=True)
-
-    def start(self) -> None:
-        self._thread.start()
-
-    def close(self) -> None:
-        self._closed.set()
-        if self._thread.is_alive():
-            self._thread.join(timeout=2.0)
-
-    @property
-    def running(self) -> bool:
-        return self._thread.is_alive()
+        super().__init__("ptwl-status-bar", join_timeout_s=2.0)
 
     def show_stop(self, phase: Literal["idle", "pending", "confirmed", "failed"], text: str) -> None:
         """STOP's own state: pending until the robot confirms; a failure stays until a STOP works."""
-        with self._lock:
-            self._stop_state = StopState(phase, text)
-            self.stop_html.content = _stop_html(self._stop_state)
+        self.stop_html.content = _stop_html(StopState(phase, text))
 
     def _run(self) -> None:
-        level: Level | None = None
+        shown: Level | None = None
         while not self._closed.wait(TICK_S):
             inputs = self._inputs()
-            now = time.time()
-            self.html.content = self._render(inputs, now)
-            new_level = staleness(_age(inputs, now), inputs.rtt_s, inputs.link_up)
-            if new_level != level:
-                level = new_level
-                self._on_level(level, _age(inputs, now))
-            self.ticks += 1
+            age, level = _judge(inputs, time.time())
+            self.html.content = _render(inputs, age, level)
+            if level != shown:
+                shown = level
+                self._on_level(level)
 
-    def _render(self, inputs: BarInputs, now: float) -> str:
-        age = _age(inputs, now)
-        level = staleness(age, inputs.rtt_s, inputs.link_up)
-        color = LEVEL_COLORS[level]
-        state = inputs.state
-        seq = state["seq"] if state else ""
-        if state is None:
-            robot = "no robot state yet"
-        else:
-            x, y, z = (1000.0 * v for v in state["port"]["position"])
-            robot = (
-                f"robot state #{seq} is <b>{age:.2f} s old</b> · port ({x:.1f}, {y:.1f}, {z:.1f}) mm"
-                f" · scene <b>{html.escape(state['scene'])}</b>"
-            )
-        stale = " · <b>STALE</b>: the robot may have moved since" if level == "stale" else ""
-        link = html.escape(inputs.link_text)
-        rtt = f"link round trip {inputs.rtt_s:g} s · {link}"
-        attrs = (
-            f'data-seq="{seq}" data-arrived="{inputs.arrived or ""}" data-age="{"" if age is None else age}"'
-            f' data-level="{level}" data-link="{int(inputs.link_up)}" data-rtt="{inputs.rtt_s}"'
+
+def _render(inputs: BarInputs, age: float | None, level: Level) -> str:
+    color = LEVEL_COLORS[level]
+    state = inputs.state
+    seq = state["seq"] if state else ""
+    if state is None:
+        robot = "no robot state yet"
+    else:
+        x, y, z = (1000.0 * v for v in state["port"]["position"])
+        robot = (
+            f"robot state #{seq} is <b>{age:.2f} s old</b> · port ({x:.1f}, {y:.1f}, {z:.1f}) mm"
+            f" · scene <b>{html.escape(state['scene'])}</b>"
         )
-        return (
-            f'<div id="ptwl-bar" style="border-left:8px solid {color};padding:2px 8px;font-size:0.85em">'
-            f"{DEAD_MAN_HTML}"
-            f'<div id="ptwl-telemetry" {attrs}>{robot}{stale}</div>'
-            f'<div style="color:{color}">{rtt}{html.escape(inputs.note)}</div>'
-            f'<div id="ptwl-running">{html.escape(inputs.command)}</div>'
-            f"{_task_html(state.get('task') if state else None)}</div>"
-        )
+    stale = " · <b>STALE</b>: the robot may have moved since" if level == "stale" else ""
+    link = html.escape(inputs.link_text)
+    rtt = f"link round trip {inputs.rtt_s:g} s · {link}"
+    attrs = (
+        f'data-seq="{seq}" data-arrived="{inputs.arrived or ""}" data-age="{"" if age is None else age}"'
+        f' data-level="{level}" data-link="{int(inputs.link_up)}" data-rtt="{inputs.rtt_s}"'
+    )
+    return (
+        f'<div id="ptwl-bar" style="border-left:8px solid {color};padding:2px 8px;font-size:0.85em">'
+        f"{DEAD_MAN_HTML}"
+        f'<div id="ptwl-telemetry" {attrs}>{robot}{stale}</div>'
+        f'<div style="color:{color}">{rtt}{html.escape(inputs.note)}</div>'
+        f'<div id="ptwl-running">{html.escape(inputs.command)}</div>'
+        f"{_task_html(state.get('task') if state else None)}</div>"
+    )
 
 
-def _age(inputs: BarInputs, now: float) -> float | None:
-    """[s] how old the state is now: from when the robot sent it, counting on while nothing comes."""
-    if inputs.state is None:
-        return None
-    return now - float(inputs.state["sent_at"])
+def _judge(inputs: BarInputs, now: float) -> tuple[float | None, Level]:
+    """([s] how old the state is now, from when the robot sent it and counting on while nothing
+    comes; how far to trust it)."""
+    age = None if inputs.state is None else now - float(inputs.state["sent_at"])
+    return age, staleness(age, inputs.rtt_s, inputs.link_up)
 
 
 def _task_html(task: dict[str, Any] | None) -> str:
