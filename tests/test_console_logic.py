@@ -17,11 +17,15 @@ from websockets.typing import Subprotocol
 
 from ptwl.launcher import ServiceProcess, free_port, running_proxy
 from robot_sim.behaviors.ptwl import ptwl_goal
+from robot_sim.geometry import scene_geometry
 from robot_sim.params import PtwlParams
+from robot_sim.sim import Simulation
 from server.client import RobotClient
+from server.models import GeometryModel
 from web.app import ConsoleApp
 from web.desk import Desk
 from web.history import CommandHistory
+from web.robot_view import FIXTURE_OPACITY
 from web.status_bar import staleness
 from web.targets import displacement_to, ptwl_target
 
@@ -328,3 +332,25 @@ def test_the_force_arrow_ends_at_the_port_from_outside(console: ConsoleApp) -> N
     tail, head = np.asarray(console.view.wrench.points)[0]
     np.testing.assert_allclose(head, state["port"]["position"], atol=1e-9)
     assert tail[2] < head[2] - 0.05  # from below, outside the tool (which runs up from the port)
+
+
+def test_fixtures_are_see_through_and_the_markers_opaque(console: ConsoleApp) -> None:
+    """On main a press target inside the plate was hidden by it: the fixtures are now drawn
+    see-through and the markers opaque, which three.js draws first, so they show through."""
+    sim = Simulation("surface")
+    geometry = GeometryModel(scene="surface", **scene_geometry(sim.model, sim.data))
+    assert console.view is not None
+    console.view.load(geometry)
+    try:
+        drawn = {
+            name: [handle.opacity for handle, _ in console.view._meshes if handle.name.startswith(node)]
+            for name in geometry.bodies
+            for node in ["/robot/" + name.replace("/", "_") + "/"]
+        }
+        assert drawn["plate_body"] and all(o == FIXTURE_OPACITY < 1.0 for o in drawn["plate_body"])
+        assert drawn["arm/link2"] and all(o is None for o in drawn["arm/link2"])  # opaque
+        with viser_client(console) as desk:
+            assert desk.contemplated.tool.opacity is None
+        assert console.view.commanded.tool.opacity is None
+    finally:
+        console._reload_geometry()

@@ -44,7 +44,6 @@ class Desk:
             "contemplated",
             YELLOW,
             (0.0, 0.0, -0.09),
-            opacity=0.55,
             distance_anchor="top-right",  # the commanded line's length is written bottom-left
         )
         self.gizmo = scene.add_transform_controls("/gizmo", scale=0.08, visible=False)

@@ -1,6 +1,8 @@
 """Intent markers the operator can see: a tool-shaped target (not a 12 mm dot), a line from the
 port to it with the distance written on it, and labels that are drawn over any fixture
-(viser draws labels without a depth test) and placed so they do not overlap.
+(viser draws labels without a depth test) and placed so they do not overlap. The markers are
+opaque: three.js draws opaque meshes before the see-through fixtures (robot_view.py), so a target
+inside a plate shows through it.
 
 A target pose is the port's: the marker's tip sits on it and its shaft runs back along -z, the
 way the real tool extends behind its port.
@@ -39,7 +41,6 @@ class TargetMarker:
         label: str,
         color: tuple[int, int, int],
         label_offset_m: tuple[float, float, float],
-        opacity: float | None = None,
         wireframe: bool = False,
         distance_anchor: Anchor = "bottom-center",
     ) -> None:
@@ -47,12 +48,11 @@ class TargetMarker:
         self.frame = scene.add_frame(
             f"/{name}", show_axes=True, axes_length=0.04, axes_radius=0.0015, visible=False
         )
-        scene.add_mesh_simple(
+        self.tool = scene.add_mesh_simple(
             f"/{name}/tool",
             np.asarray(mesh.vertices, dtype=np.float32),
             np.asarray(mesh.faces, dtype=np.uint32),
             color=color,
-            opacity=opacity,
             wireframe=wireframe,
         )
         self.label = scene.add_label(f"/{name}/label", label, position=label_offset_m, anchor="center-left")

@@ -19,6 +19,9 @@ from web.meshes import MeshPart, body_parts
 from web.targets import Pose
 
 RED = (224, 49, 49)
+# Fixtures (the bodies that never move: plate, peg, stand) are drawn see-through, so a target
+# inside or behind one stays in sight: the markers are opaque, drawn first, and show through.
+FIXTURE_OPACITY = 0.55
 STALE_GREY = (150, 150, 150)
 FORCE_COLOR = (230, 119, 0)
 
@@ -35,6 +38,11 @@ class RobotView:
         scene.set_up_direction("+z")
         # Without a GPU (software WebGL) shadow maps cost most of every frame; the lights stay.
         scene.configure_default_lights(enabled=True, cast_shadow=False)
+        # viser's default image-based lighting is prefiltered in the browser: one 4-5 s frame in
+        # software WebGL, just as the panels arrive, which held Send back past 7 s at 3 s RTT.
+        # A sky/ground fill light stands in for it.
+        scene.configure_environment_map(hdri=None)
+        scene.add_light_hemisphere("/fill", sky_color=(255, 255, 255), ground_color=(90, 90, 100))
         scene.add_grid("/floor", width=2.0, height=2.0, cell_size=0.1, section_size=0.5)
         self.port = scene.add_frame("/port", axes_length=0.05, axes_radius=0.004, origin_radius=0.006)
         self.attractor = scene.add_frame(
@@ -96,7 +104,7 @@ class RobotView:
                     np.asarray(part.mesh.vertices, dtype=np.float32),
                     np.asarray(part.mesh.faces, dtype=np.uint32),
                     color=STALE_GREY if self.stale else part.rgb,
-                    opacity=part.opacity if part.opacity < 1.0 else None,
+                    opacity=drawn_opacity(part.opacity, geometry.bodies[name].moving),
                     cast_shadow=False,  # see configure_default_lights above
                     receive_shadow=False,
                 )
@@ -153,3 +161,9 @@ class RobotView:
         self.stale_label.visible = stale
         for handle, part in self._meshes:
             handle.color = STALE_GREY if stale else part.rgb
+
+
+def drawn_opacity(opacity: float, moving: bool) -> float | None:
+    """The opacity a part is drawn with (None: opaque); fixtures never hide what is behind them."""
+    shown = opacity if moving else min(opacity, FIXTURE_OPACITY)
+    return shown if shown < 1.0 else None
