@@ -26,7 +26,7 @@ from web.app import ConsoleApp
 from web.desk import Desk
 from web.history import CommandHistory
 from web.robot_view import FIXTURE_OPACITY
-from web.status_bar import staleness
+from web.status_bar import _task_html, staleness
 from web.targets import displacement_to, ptwl_target
 
 PORT_POSE = (np.array([0.378, 0.0, 0.27]), np.array([0.0, 0.0, 1.0, 0.0]))  # tool z down
@@ -354,3 +354,19 @@ def test_fixtures_are_see_through_and_the_markers_opaque(console: ConsoleApp) ->
         assert console.view.commanded.tool.opacity is None
     finally:
         console._reload_geometry()
+
+
+@pytest.mark.parametrize(
+    ("progress", "target", "unit", "shown"),
+    [
+        (12.345, 30.0, "mm", "task: 12.3 / 30 mm"),
+        (0.0006639, 5.0, "N", "task: 0.00 / 5 N"),
+        (-1e-9, 5.0, "N", "task: 0.00 / 5 N"),
+    ],
+)
+def test_task_progress_is_written_to_the_targets_resolution(
+    progress: float, target: float, unit: str, shown: str
+) -> None:
+    """On the first cut the bar read "task: 0.0006639 / 5 N": noise digits (and "-0")."""
+    task = {"progress": progress, "target": target, "unit": unit, "success": False, "predicate": "p"}
+    assert shown + " <span" in _task_html(task)

@@ -7,6 +7,7 @@ frozen "1.50 s old - connected".
 """
 
 import html
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -140,7 +141,9 @@ def _task_html(task: dict[str, Any] | None) -> str:
     if not task:
         return '<div id="ptwl-task" data-success="" data-progress="">task: unknown</div>'
     progress, target, unit = task["progress"], task["target"], task["unit"]
-    shown = "—" if progress is None else f"{progress + 0.0:.4g}"  # + 0.0: never "-0"
+    # Three significant digits of the target's size (12.3 / 30 mm, 0.00 / 5 N): no noise digits.
+    decimals = max(0, 2 - math.floor(math.log10(abs(target)))) if target else 3
+    shown = "—" if progress is None else f"{round(progress, decimals) + 0.0:.{decimals}f}"  # never "-0"
     fraction = 0.0 if progress is None or target == 0 else max(0.0, min(1.0, progress / target))
     badge = (
         '<span style="background:#2f9e44;color:white;padding:0 6px;border-radius:4px">SUCCESS</span>'
