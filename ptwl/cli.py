@@ -4,6 +4,7 @@
     ptwl serve | ptwl proxy | ptwl console               each of those alone
     ptwl sim [--scene NAME] [--demo] [--seconds S]        the robot alone, headless, real time
     ptwl scenes | ptwl presets                            what exists
+    ptwl task list | run TASK | bench TASK                the tasks' onboard state machines
 
 `ptwl sim --demo` drives the paper's sleeve-on-peg sequence (a 3 degree tilt, then the
 documented strategy: PTWL jams, RWE, torsional dither, PTWL, until inserted) and prints one
@@ -15,27 +16,36 @@ import json
 import os
 import signal
 import sys
+from collections.abc import Generator
 from pathlib import Path
 
-from robot_sim.behaviors.base import BehaviorReport
+from ptwl.task_cli import add_task_parser
+from robot_sim.behaviors import Behavior, BehaviorReport, behavior_for
 from robot_sim.behaviors.ptwl import Ptwl
 from robot_sim.errors import RobotSimError
 from robot_sim.params import PtwlParams
+from robot_sim.policies import Machine, Step
+from robot_sim.policies.sleeve_on_peg import SleeveOnPeg
 from robot_sim.presets import default_presets
 from robot_sim.scenes import SCENES
 from robot_sim.sim import Simulation
-from robot_sim.strategies import Strategy
-from robot_sim.strategies.sleeve_on_peg import sleeve_insertion
 from server.config import ConfigError
 from server.pacing import RealTimePacer
 
 DEMO_TILT_RAD = 0.052  # 3 degrees about the tool x axis: enough to jam the 0.089 mm fit
 
 
+Strategy = Generator[Behavior, BehaviorReport, None]  # the next behavior, sent how the last ended
+
+
 def demo_sequence(sim: Simulation) -> Strategy:
-    """Paper 2.3.5 on `sleeve_on_peg`: a tilt jams plain PTWL; the twist dither gets it in."""
+    """Paper 2.3.5 on `sleeve_on_peg`: a tilt jams plain PTWL; the state machine's twist dither
+    gets it in."""
     yield Ptwl(PtwlParams(rotation=[DEMO_TILT_RAD, 0.0, 0.0], duration=1.0, preset="medium"))
-    yield from sleeve_insertion(lambda: sim.task().success)
+    machine = Machine(SleeveOnPeg())
+    step: Step | None = machine.start(sim.state().port)
+    while step is not None:
+        step = machine.advance((yield behavior_for(step.params)))
 
 
 def status_line(sim: Simulation) -> str:
@@ -230,6 +240,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _access_flags(proxy)
     proxy.set_defaults(func=cmd_proxy)
+    add_task_parser(sub)
     sub.add_parser("scenes", help="list scenes").set_defaults(func=cmd_scenes)
     sub.add_parser("presets", help="print stiffness and dither presets").set_defaults(func=cmd_presets)
     return parser

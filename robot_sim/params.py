@@ -15,6 +15,7 @@ from pydantic import (
     GetJsonSchemaHandler,
     ValidatorFunctionWrapHandler,
     WrapValidator,
+    field_validator,
     model_validator,
 )
 from pydantic.json_schema import JsonSchemaValue
@@ -287,3 +288,19 @@ def _resolve_gains(
     if stiffness is not None and damping is not None:
         return Gains.of(stiffness, damping)
     return None
+
+
+class StateMachineParams(StrictModel):
+    """A task's onboard state machine (robot_sim/policies), run as one command."""
+
+    type: Literal["state_machine"] = Field("state_machine", description="command: state_machine")
+    task: str = Field(description="which task's state machine (GET /api/tasks lists them)")
+
+    @field_validator("task")
+    @classmethod
+    def _known(cls, task: str) -> str:
+        from robot_sim.policies import POLICIES  # they build on these params: imported late
+
+        if task not in POLICIES:
+            raise ValueError(f"task must be one of {', '.join(sorted(POLICIES))}, got {task!r}")
+        return task

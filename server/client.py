@@ -98,7 +98,17 @@ class RobotClient:
         return [CommandStatus(**c) for c in self._request("GET", "/api/commands", params={"limit": limit})]
 
     def get(self, command_id: int, wait: float = 0.0) -> CommandStatus:
-        return CommandStatus(**self._request("GET", f"/api/commands/{command_id}", params={"wait": wait}))
+        """A command's status; with `wait` [s], held by the server until it is done or that
+        passes (so the read may take that long on top of the client's timeout)."""
+        read_s = self._http.timeout.read
+        timeout = (
+            self._http.timeout
+            if read_s is None
+            else httpx.Timeout(**(self._http.timeout.as_dict() | {"read": read_s + wait}))
+        )
+        return CommandStatus(
+            **self._request("GET", f"/api/commands/{command_id}", params={"wait": wait}, timeout=timeout)
+        )
 
     # -------------------------------------------------------------------- writes
     def command(self, type: str, sender: str | None = None, **params: Any) -> CommandAccepted:

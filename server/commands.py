@@ -19,12 +19,16 @@ import threading
 import time
 from collections import OrderedDict, deque
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from robot_sim.behaviors import BehaviorParams, BehaviorReport
 from robot_sim.behaviors.base import Pose
-from server.models import CommandStatus, PoseModel
+from robot_sim.params import StateMachineParams
+from robot_sim.policies.run import StepRecord
+from server.models import CommandStatus, MachineStepModel, PoseModel
+
+CommandParams = BehaviorParams | StateMachineParams
 
 
 class QueueFullError(Exception):
@@ -46,7 +50,7 @@ def _finite_or_none(value: float) -> float | None:
 class CommandRecord:
     id: int
     instance: str
-    params: BehaviorParams
+    params: CommandParams
     params_json: dict[str, Any]  # as validated, defaults filled in (dumped once)
     queued_at: float
     status: str = "queued"
@@ -57,6 +61,7 @@ class CommandRecord:
     detail: str = ""
     sender: str | None = None
     goal: Pose | None = None
+    steps: list[StepRecord] = field(default_factory=list)  # a state machine's, as they end
 
     def to_model(self) -> CommandStatus:
         """The API's view. A fault can leave NaN in the report: such fields become null, with
@@ -87,6 +92,7 @@ class CommandRecord:
             detail=detail,
             sender=self.sender,
             goal=PoseModel(**self.goal.as_dict()) if self.goal else None,
+            steps=[MachineStepModel(**step.as_dict()) for step in self.steps],
         )
 
 
@@ -109,7 +115,7 @@ class CommandBook:
         """(under the lock) The one place a status change is announced."""
         self._on_change(record)
 
-    def submit(self, params: BehaviorParams, sender: str | None = None) -> CommandRecord:
+    def submit(self, params: CommandParams, sender: str | None = None) -> CommandRecord:
         with self._lock:
             if len(self._queue) >= self._queue_max:
                 raise QueueFullError(self._queue_max)
@@ -154,6 +160,14 @@ class CommandBook:
             self.running = None
             self._changed(record)
             return record
+
+    def step_done(self, step: StepRecord) -> None:
+        """A step of the running state machine ended (simulation thread): announced while the
+        machine goes on, so a watcher sees each step and why the next was chosen."""
+        with self._lock:
+            if self.running is not None:
+                self.running.steps.append(step)
+                self._changed(self.running)
 
     def drop_queued(self, detail: str) -> list[CommandRecord]:
         """End every queued command `aborted` without running it."""

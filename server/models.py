@@ -10,10 +10,10 @@ from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Fie
 
 from robot_sim.errors import UnknownNameError
 from robot_sim.limits import MAX_SEED
-from robot_sim.params import DitherParams, PtwlParams, RweParams
+from robot_sim.params import DitherParams, PtwlParams, RweParams, StateMachineParams
 from robot_sim.scenes import SCENES, get_scene
 
-Command = Annotated[PtwlParams | RweParams | DitherParams, Field(discriminator="type")]
+Command = Annotated[PtwlParams | RweParams | DitherParams | StateMachineParams, Field(discriminator="type")]
 CommandState = Literal["queued", "running", "done"]
 
 
@@ -61,10 +61,14 @@ class CommandStatus(BaseModel):
 
     id: int = Field(description="command id; never reused, across restarts too")
     instance: str = Field(description=INSTANCE_DOC)
-    type: Literal["ptwl", "rwe", "dither"] = Field(description="the behavior")
+    type: Literal["ptwl", "rwe", "dither", "state_machine"] = Field(
+        description="the behavior, or a task's state machine"
+    )
     status: CommandState = Field(description="queued, running or done")
     exit: str | None = Field(
-        None, description="goal_reached | wrench_breach | timeout | completed | aborted | fault"
+        None,
+        description="goal_reached | wrench_breach | timeout | aborted | fault; a state machine: "
+        "completed | failed | aborted | fault",
     )
     params: dict[str, Any] = Field(description="the validated parameters, defaults filled in")
     queued_at: float = Field(description="[s] server wall clock, Unix time")
@@ -90,6 +94,24 @@ class CommandStatus(BaseModel):
         description="the absolute pose the robot resolved at start (a PTWL's port at start (+) its "
         "displacement); null before it starts and for behaviors without one",
     )
+    steps: list["MachineStepModel"] = Field(
+        default_factory=list,
+        description="a state machine's behaviors so far, each with why it was chosen and how it ended",
+    )
+
+
+class MachineStepModel(BaseModel):
+    index: int = Field(description="0, 1, ... in the order run")
+    behavior: Literal["ptwl", "rwe", "dither"] = Field(description="which behavior")
+    params: dict[str, Any] = Field(description="its parameters, defaults filled in")
+    why: str = Field(description="why the state machine chose it, from the previous step's report")
+    exit: str = Field(description="how it ended")
+    started_at: float = Field(description="[s] sim time")
+    ended_at: float = Field(description="[s] sim time")
+    peak_force: float = Field(description="[N] max |f| while it ran")
+    peak_torque: float = Field(description="[N m] max |tau| while it ran")
+    final_wrench: list[float] = Field(description="[N, N m] environment on port at its exit")
+    final_port: PoseModel = Field(description="port pose at its exit")
 
 
 class TaskProgressModel(BaseModel):
@@ -154,6 +176,13 @@ class SceneRequest(BaseModel):
 class SceneModel(BaseModel):
     name: str = Field(description="scene name for POST /api/scene")
     description: str = Field(description="what is in it")
+
+
+class TaskInfoModel(BaseModel):
+    name: str = Field(
+        description="task name for a `state_machine` command; it runs on the scene of that name"
+    )
+    summary: str = Field(description="its state machine's procedure in a line")
 
 
 class GeomModel(BaseModel):

@@ -9,11 +9,11 @@ import pytest
 from robot_sim.behaviors import Dither, ExitCondition, Ptwl, Rwe
 from robot_sim.behaviors.dither import perpendicular_basis
 from robot_sim.params import DitherParams, PtwlParams, RweParams
+from robot_sim.policies.sleeve_on_peg import INSERT
 from robot_sim.pose_math import rotvec_from_to
 from robot_sim.presets import default_presets
 from robot_sim.scenes import sleeve_insertion_depth
 from robot_sim.sim import Simulation
-from robot_sim.strategies.sleeve_on_peg import INSERT
 
 
 def circle_fit(t: np.ndarray, xy: np.ndarray) -> tuple[float, float]:

@@ -18,6 +18,7 @@ from latency.profile import LinkProfile
 from ptwl.launcher import ServiceProcess, running_proxy, running_server
 
 HOLD_TOLERANCE_S = 0.005
+pytestmark = pytest.mark.usefixtures("no_gc_pauses")  # end-to-end timings are taken in this process
 
 
 @pytest.fixture(scope="module")

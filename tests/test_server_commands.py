@@ -102,6 +102,15 @@ def test_long_poll_answers_when_done_and_times_out_otherwise(robot: RobotClient)
     assert err.value.status_code == 404
 
 
+def test_waiting_outlasts_the_clients_own_read_timeout(server) -> None:  # type: ignore[no-untyped-def]
+    """A long-poll is held by the server for up to its `wait`: the client's read timeout must
+    stretch by that much (it did not: any command over 10 s raised ReadTimeout in `wait`)."""
+    with RobotClient(server.url, timeout=1.0) as client:
+        client.reset_scene("free_space")
+        done = client.run("ptwl", translation=[0.0, 0.0, -0.02], duration=2.5)
+    assert done.status == "done" and done.exit == "goal_reached" and (done.duration or 0.0) > 2.0
+
+
 def test_watchdog_ends_a_command_nobody_asks_about(robot: RobotClient) -> None:
     robot.reset_scene("surface")
     # Behind the plate, under the threshold: only the watchdog can end it.

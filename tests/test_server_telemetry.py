@@ -12,6 +12,7 @@ from ptwl.launcher import ServiceProcess
 from server.telemetry import CLIENT_BACKLOG, Broadcaster
 
 WINDOW_S = 3.0
+pytestmark = pytest.mark.usefixtures("no_gc_pauses")  # rates are timed in this process
 
 
 async def receive_states(url: str, seconds: float) -> list[tuple[float, dict]]:

@@ -9,21 +9,21 @@ from typing import Any
 import numpy as np
 from pydantic import TypeAdapter, ValidationError
 
-from robot_sim.behaviors import BehaviorParams
 from robot_sim.gains import Gains
 from robot_sim.impact import impact_warnings
 from robot_sim.params import PtwlParams
+from server.commands import CommandParams
 from server.errors import error_detail, field_errors
 from server.models import Command
 
-_COMMAND: TypeAdapter[BehaviorParams] = TypeAdapter(Command)
+_COMMAND: TypeAdapter[CommandParams] = TypeAdapter(Command)
 
 
 @dataclass(frozen=True)
 class Check:
     errors: str = ""  # as the API's 422 would say it; empty when valid
     warnings: list[str] = field(default_factory=list)
-    params: BehaviorParams | None = None  # as validated, defaults filled in
+    params: CommandParams | None = None  # as validated, defaults filled in
 
     @property
     def ok(self) -> bool:

@@ -20,7 +20,8 @@ class ExitCondition(StrEnum):
     GOAL_REACHED = "goal_reached"
     WRENCH_BREACH = "wrench_breach"
     TIMEOUT = "timeout"
-    COMPLETED = "completed"
+    COMPLETED = "completed"  # a state machine that believes its task done
+    FAILED = "failed"  # a state machine that gave up (its report's detail says why)
     ABORTED = "aborted"
     FAULT = "fault"
 

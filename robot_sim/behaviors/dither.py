@@ -11,7 +11,7 @@ backward) over `duration`, and around that centre:
 
 The wiggle's amplitude ramps in over its first cycle, so the attractor never jumps. (A conical
 wobble of the axis was tried as a third mode and dropped: it recovered 1 of 12 sleeve jams
-where the paper's twist recovers 12 of 12; see robot_sim/strategies/sleeve_on_peg.py.)
+where the paper's twist recovers 12 of 12; see robot_sim/policies/sleeve_on_peg.py.)
 Exits: `wrench_breach` (thresholds, then `on_breach`), `goal_reached` when the port has moved
 the travel from where it was at start (to within TRAVEL_TOLERANCE_M), `timeout` at the watchdog.
 """

@@ -3,10 +3,11 @@
 from typing import Annotated
 
 from fastapi import APIRouter, Body, Header, HTTPException, Query, Request, status
+from fastapi.exceptions import RequestValidationError
 
 from guard.disconnect import client_gone
 from robot_sim.impact import impact_warnings
-from robot_sim.params import PtwlParams
+from robot_sim.params import PtwlParams, StateMachineParams
 from server.models import (
     NOT_FOUND_RESPONSES,
     QUEUE_FULL_RESPONSES,
@@ -46,10 +47,16 @@ async def submit_command(
         ),
     ] = None,
 ) -> CommandAccepted:
-    """Validate and queue a PTWL, RWE or Dither; commands run in order, one at a time.
+    """Validate and queue a PTWL, RWE, Dither or a task's state machine (which runs its behaviors
+    as one command, each step announced as it ends); commands run in order, one at a time.
 
     `warnings` says what is accepted but worth knowing (an approach that will overshoot the
     force threshold on impact)."""
+    if isinstance(params, StateMachineParams) and runner.sim.scene.name != params.task:
+        message = (
+            f"the {params.task} state machine needs scene {params.task}; {runner.sim.scene.name} is loaded"
+        )
+        raise RequestValidationError([{"loc": ("body", "task"), "msg": message, "type": "value_error"}])
     record = book.submit(params, sender)
     warnings: list[str] = []
     if isinstance(params, PtwlParams):

@@ -1,10 +1,11 @@
-"""Scenes: list them, reset to one."""
+"""Scenes: list them, reset to one; the tasks with an onboard state machine."""
 
 from fastapi import APIRouter
 
 from robot_sim.geometry import scene_geometry
+from robot_sim.policies import POLICIES
 from robot_sim.scenes import SCENES
-from server.models import SIM_RESPONSES, GeometryModel, SceneModel, SceneRequest, StopResult
+from server.models import SIM_RESPONSES, GeometryModel, SceneModel, SceneRequest, StopResult, TaskInfoModel
 from server.routes.deps import Runner, on_sim_thread
 
 router = APIRouter(prefix="/api", tags=["scenes"])
@@ -13,6 +14,13 @@ router = APIRouter(prefix="/api", tags=["scenes"])
 @router.get("/scenes", response_model=list[SceneModel])
 async def scenes() -> list[SceneModel]:
     return [SceneModel(name=s.name, description=s.description) for s in SCENES.values()]
+
+
+@router.get("/tasks", response_model=list[TaskInfoModel])
+async def tasks() -> list[TaskInfoModel]:
+    """Tasks whose state machine runs onboard as one command: `POST /api/commands` with
+    `{"type": "state_machine", "task": NAME}` while the scene NAME is loaded."""
+    return [TaskInfoModel(name=name, summary=policy.summary) for name, policy in POLICIES.items()]
 
 
 @router.post("/scene", response_model=StopResult, responses=SIM_RESPONSES)

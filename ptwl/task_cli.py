@@ -1,0 +1,96 @@
+"""`ptwl task`: the onboard state machines, headless, as fast as the CPU allows.
+
+ptwl task list                                  the tasks with a state machine
+ptwl task run TASK [--seed N] [--json]          one trial: success, end, sim time, figures
+ptwl task bench TASK [--seeds N]                N trials: success rate and the paper's means
+"""
+
+import argparse
+import json
+import statistics
+import sys
+
+from robot_sim.policies import POLICIES, TaskRun, run_onboard
+from robot_sim.scenes import get_scene
+
+
+def cmd_list(_: argparse.Namespace) -> int:
+    for name, policy in POLICIES.items():
+        print(f"{name:16s} {policy.summary}\n{'':16s} scene: {get_scene(name).description}")
+    return 0
+
+
+def run_line(run: TaskRun) -> str:
+    m = run.as_dict()
+    ptwl = ", ".join(f"{k} {v}" for k, v in m["ptwl"].items())
+    return (
+        f"{run.task} seed {run.seed}: {'SUCCESS' if run.success else 'no success'} "
+        f"(progress {run.progress:.4g} {run.unit}); machine ended {run.end}: {run.why}\n"
+        f"  sim time {run.sim_time_s:.2f} s, run time {m['run_time_s']:.2f} s, "
+        f"max force {m['max_force_n']:.1f} N, max torque {m['max_torque_nm']:.2f} N m, "
+        f"{m['behaviors']} behaviors: RWE {m['rwe']}, Dither {m['dither']}, PTWL ({ptwl})"
+    )
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    run = run_onboard(args.task, args.seed)
+    if args.json:
+        print(json.dumps(run.as_dict()))
+    else:
+        print(run_line(run))
+        for step in run.steps:
+            r = step.report
+            print(f"  {step.index:2d} {r.behavior:6s} -> {r.exit.value:13s} {step.why}")
+    return 0 if run.success else 1
+
+
+def bench_table(task: str, runs: list[TaskRun]) -> str:
+    """The paper's Tables 1-3 layout: success, then the mean of each figure over the trials."""
+    metrics = [r.as_dict() for r in runs]
+
+    def mean(key: str) -> float:
+        return statistics.fmean(m[key] for m in metrics)
+
+    def mean_ptwl(exit_name: str) -> float:
+        return statistics.fmean(m["ptwl"][exit_name] for m in metrics)
+
+    rows = [
+        ("Trials", f"{len(runs)}"),
+        ("Success", f"{sum(r.success for r in runs)} / {len(runs)}"),
+        ("Max force [N]", f"{mean('max_force_n'):.1f}"),
+        ("Max torque [N m]", f"{mean('max_torque_nm'):.2f}"),
+        ("Run time [s]", f"{mean('run_time_s'):.1f}"),
+        ("Number of behaviors", f"{mean('behaviors'):.2f}"),
+        ("RWE", f"{mean('rwe'):.2f}"),
+        ("PTWL (timeout)", f"{mean_ptwl('timeout'):.2f}"),
+        ("PTWL (goal reached)", f"{mean_ptwl('goal_reached'):.2f}"),
+        ("PTWL (wrench breach)", f"{mean_ptwl('wrench_breach'):.2f}"),
+        ("Dither", f"{mean('dither'):.2f}"),
+    ]
+    lines = [f"| {task} | mean over trials |", "|---|---|"]
+    return "\n".join(lines + [f"| {name} | {value} |" for name, value in rows])
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    runs = []
+    for seed in range(args.seeds):
+        runs.append(run_onboard(args.task, seed))
+        print(f"\r{args.task}: {seed + 1}/{args.seeds} trials", end="", file=sys.stderr, flush=True)
+    print(file=sys.stderr)
+    print(bench_table(args.task, runs))
+    return 0
+
+
+def add_task_parser(sub: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
+    task = sub.add_parser("task", help="the tasks' onboard state machines, headless")
+    verbs = task.add_subparsers(dest="verb", required=True)
+    verbs.add_parser("list", help="tasks with a state machine").set_defaults(func=cmd_list)
+    run = verbs.add_parser("run", help="one trial, as fast as the CPU allows")
+    run.add_argument("task", choices=list(POLICIES))
+    run.add_argument("--seed", type=int, default=None, help="the scene's misalignments (default: nominal)")
+    run.add_argument("--json", action="store_true", help="one JSON object instead of text")
+    run.set_defaults(func=cmd_run)
+    bench = verbs.add_parser("bench", help="seeds 0..N-1: success rate and the paper's table of means")
+    bench.add_argument("task", choices=list(POLICIES))
+    bench.add_argument("--seeds", type=int, default=100)
+    bench.set_defaults(func=cmd_bench)

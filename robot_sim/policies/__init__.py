@@ -1,0 +1,89 @@
+"""Onboard state machines, one per task, built only from PTWL, RWE and Dither (paper 2.3).
+
+`policy_for(task)` gives a fresh policy (base.py); `run_onboard` runs one headless on a fresh
+simulation of the task's scene, each next step at once, as fast as the CPU allows, and judges
+the result by the scene's own predicate, which the policy never sees.
+"""
+
+from dataclasses import dataclass
+from typing import Any
+
+from robot_sim.behaviors import behavior_for
+from robot_sim.errors import UnknownNameError
+from robot_sim.policies.base import Decision, Finish, Policy, Step
+from robot_sim.policies.run import Machine, StepRecord, trial_metrics
+from robot_sim.policies.sleeve_on_peg import SleeveOnPeg
+from robot_sim.sim import Simulation
+
+POLICIES: dict[str, type[Policy]] = {p.task: p for p in (SleeveOnPeg,)}
+
+
+def policy_for(task: str) -> Policy:
+    try:
+        return POLICIES[task]()
+    except KeyError:
+        raise UnknownNameError("task", task, list(POLICIES)) from None
+
+
+@dataclass(frozen=True)
+class TaskRun:
+    """One headless trial: the predicate's verdict, the machine's, and the paper's figures."""
+
+    task: str
+    seed: int | None
+    success: bool  # the scene's predicate at the end
+    progress: float
+    unit: str
+    end: str  # the machine's exit: completed, failed, aborted or fault
+    why: str
+    sim_time_s: float
+    steps: list[StepRecord]
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "task": self.task,
+            "seed": self.seed,
+            "success": self.success,
+            "progress": self.progress,
+            "unit": self.unit,
+            "end": self.end,
+            "why": self.why,
+            "sim_time_s": self.sim_time_s,
+            **trial_metrics(self.steps),
+            "steps": [s.as_dict() for s in self.steps],
+        }
+
+
+def run_onboard(task: str, seed: int | None = None, sim: Simulation | None = None) -> TaskRun:
+    """Run `task`'s state machine on `sim` (default: a fresh one of the task's scene, `seed`)."""
+    machine = Machine(policy_for(task))
+    sim = sim or Simulation(task, seed)
+    step: Step | None = machine.start(sim.state().port)
+    while step is not None:
+        step = machine.advance(sim.run_behavior(behavior_for(step.params)))
+    assert machine.exit is not None and machine.finish is not None
+    verdict = sim.task()
+    return TaskRun(
+        task,
+        seed,
+        verdict.success,
+        verdict.progress,
+        verdict.unit,
+        machine.exit.value,
+        machine.finish.why,
+        sim.time,
+        machine.steps,
+    )
+
+
+__all__ = [
+    "POLICIES",
+    "Decision",
+    "Finish",
+    "Machine",
+    "Policy",
+    "Step",
+    "TaskRun",
+    "policy_for",
+    "run_onboard",
+]

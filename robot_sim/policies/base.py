@@ -1,0 +1,48 @@
+"""A task's onboard state machine, written as a policy (paper 2.1: "the subsequent state depends
+on the exit condition returned by the behavior").
+
+A policy sees only what a behavior reports (its exit, the wrench and port pose at exit) and
+what it has itself remembered; from that it chooses the next behavior, or finishes. It holds no
+simulation, server or clock: the same policy runs onboard, the next step at once (`run.py`, the
+server's `state_machine` command), or on the ground, each report arriving down a delayed link.
+"""
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+
+from robot_sim.behaviors import BehaviorParams, BehaviorReport, Pose
+
+
+@dataclass(frozen=True)
+class Step:
+    """Run this behavior next, for this reason."""
+
+    params: BehaviorParams
+    why: str
+
+
+@dataclass(frozen=True)
+class Finish:
+    """The machine's own verdict: it believes the task done (`completed`) or gives up (`failed`).
+    The scene's predicate, which the policy cannot see, is judged separately."""
+
+    completed: bool
+    why: str
+
+
+Decision = Step | Finish
+
+
+class Policy(ABC):
+    """One task's state machine; a fresh instance per run (it keeps the run's memory)."""
+
+    task: str  # the task, and the scene it runs on
+    summary: str  # its procedure in a line
+
+    @abstractmethod
+    def first(self, port: Pose) -> Step:
+        """The opening behavior, given where the port is at the start (base frame)."""
+
+    @abstractmethod
+    def next(self, report: BehaviorReport) -> Decision:
+        """Given how the last behavior ended, the next step or the end."""

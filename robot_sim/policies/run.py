@@ -1,0 +1,107 @@
+"""Driving a policy: the one loop the headless runner and the server's `state_machine` command
+share, and the paper's per-trial figures (Tables 1-3) from its steps."""
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from robot_sim.behaviors import BehaviorParams, BehaviorReport, ExitCondition, Pose
+from robot_sim.policies.base import Finish, Policy, Step
+
+MAX_STEPS = 60  # behaviors; a policy still going after this many has lost its way: failed
+
+
+@dataclass(frozen=True)
+class StepRecord:
+    """One behavior the machine ran: what, why, and how it ended."""
+
+    index: int
+    params: BehaviorParams
+    why: str
+    report: BehaviorReport
+
+    def as_dict(self) -> dict[str, Any]:
+        r = self.report
+        return {
+            "index": self.index,
+            "behavior": self.params.type,
+            "params": self.params.model_dump(),
+            "why": self.why,
+            "exit": r.exit.value,
+            "started_at": r.started_at,
+            "ended_at": r.ended_at,
+            "peak_force": r.peak_force,
+            "peak_torque": r.peak_torque,
+            "final_wrench": list(r.final_wrench),
+            "final_port": r.final_port.as_dict(),
+        }
+
+
+@dataclass
+class Machine:
+    """A policy being run: the step in flight, the steps done, and how it ended."""
+
+    policy: Policy
+    steps: list[StepRecord] = field(default_factory=list)
+    current: Step | None = None
+    finish: Finish | None = None
+    exit: ExitCondition | None = None  # completed, failed, aborted or fault, once ended
+
+    def start(self, port: Pose) -> Step:
+        self.current = self.policy.first(port)
+        return self.current
+
+    def advance(self, report: BehaviorReport) -> Step | None:
+        """The running step ended with `report`: the next step, or None when the machine ended."""
+        assert self.current is not None, "advance() before start()"
+        self.steps.append(StepRecord(len(self.steps), self.current.params, self.current.why, report))
+        self.current = None
+        if report.exit in (ExitCondition.ABORTED, ExitCondition.FAULT):  # STOP, or the physics
+            why = f"step {len(self.steps)} ({report.behavior}) ended {report.exit}"
+            self._end(Finish(False, why), report.exit)
+            return None
+        decision = self.policy.next(report)
+        if isinstance(decision, Finish):
+            self._end(decision, ExitCondition.COMPLETED if decision.completed else ExitCondition.FAILED)
+            return None
+        if len(self.steps) >= MAX_STEPS:
+            self._end(Finish(False, f"still going after {MAX_STEPS} behaviors"), ExitCondition.FAILED)
+            return None
+        self.current = decision
+        return decision
+
+    def _end(self, finish: Finish, exit_condition: ExitCondition) -> None:
+        self.finish, self.exit = finish, exit_condition
+
+    def report(self) -> BehaviorReport:
+        """The whole run as one report (peak over every step; the last step's wrench and pose)."""
+        assert self.exit is not None and self.finish is not None and self.steps
+        first, last = self.steps[0].report, self.steps[-1].report
+        return BehaviorReport(
+            behavior="state_machine",
+            exit=self.exit,
+            started_at=first.started_at,
+            ended_at=last.ended_at,
+            peak_force=max(s.report.peak_force for s in self.steps),
+            peak_torque=max(s.report.peak_torque for s in self.steps),
+            final_wrench=last.final_wrench,
+            final_port=last.final_port,
+            detail=self.finish.why,
+        )
+
+
+def trial_metrics(steps: list[StepRecord]) -> dict[str, Any]:
+    """The paper's per-trial figures: peaks, run time, behaviors by kind, PTWLs by exit."""
+    reports = [s.report for s in steps]
+    ptwl_exits = [r.exit.value for r in reports if r.behavior == "ptwl"]
+    return {
+        "max_force_n": max((r.peak_force for r in reports), default=0.0),
+        "max_torque_nm": max((r.peak_torque for r in reports), default=0.0),
+        "run_time_s": reports[-1].ended_at - reports[0].started_at if reports else 0.0,
+        "behaviors": len(reports),
+        "rwe": sum(r.behavior == "rwe" for r in reports),
+        "dither": sum(r.behavior == "dither" for r in reports),
+        "ptwl": {
+            exit.value: ptwl_exits.count(exit.value)
+            for exit in (ExitCondition.TIMEOUT, ExitCondition.GOAL_REACHED, ExitCondition.WRENCH_BREACH)
+        },
+    }

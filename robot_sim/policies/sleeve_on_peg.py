@@ -1,0 +1,74 @@
+"""Sleeve on peg (paper 2.3.5, Table 3): insert, and recover a jam with the paper's twist dither.
+
+Aligned, one PTWL does it: its goal lies 9 mm past the bottom of the 40 mm sleeve, so it ends
+`timeout` pressing ~19 N, as in Table 3 (1 PTWL, timeout, mean peak 18.8 N). Tilted by 2-4
+degrees the 0.089 mm fit jams 3-7 mm in, and every further PTWL breaches at once (the paper:
+"jamming would still occur after a PTWL was sent"). The machine:
+
+    insert    PTWL 70 mm down the tool axis     -> ended without a breach: bottomed, completed
+                                                -> breached past INSERTED_M: in far enough, completed
+                                                -> breached short of it: a jam, recover
+    recover   RWE (all axes)                    relieve the jam's wrench
+              Dither torsional_push             turn +-0.1 rad about the sleeve axis at 1 Hz while
+                                                advancing 20 mm: the turning breaks the wedging
+                                                friction and the sleeve walks in and straightens
+              then insert again; after MAX_RECOVERIES jams in a row: failed
+
+It judges depth only by how far the port has travelled down the tool axis since the start (the
+sleeve's mouth is nominally 21 mm below home), never by the simulator's predicate.
+"""
+
+import numpy as np
+
+from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
+from robot_sim.params import DitherParams, PtwlParams, RweParams
+from robot_sim.policies.base import Decision, Finish, Policy, Step
+from robot_sim.pose_math import rotation_matrix
+
+INSERT = PtwlParams(translation=[0.0, 0.0, 0.07], duration=7.0, force_threshold=25.0)
+RELIEVE = RweParams(duration=1.0)
+TWIST = DitherParams(preset="torsional_push")
+MAX_RECOVERIES = 4
+INSERTED_M = 0.050  # [m] travel down the tool axis from home: sleeve >= 30 mm over the peg
+
+
+class SleeveOnPeg(Policy):
+    task = "sleeve_on_peg"
+    summary = "insert (PTWL); on a jam relieve (RWE), twist-dither and insert again, up to 4 times"
+
+    def __init__(self) -> None:
+        self.home: Pose | None = None
+        self.recoveries = 0
+        self.pending: list[Step] = []
+
+    def first(self, port: Pose) -> Step:
+        self.home = port
+        return Step(INSERT, "insert: PTWL 70 mm down the tool axis, 9 mm past the sleeve's bottom")
+
+    def travel_m(self, port: Pose) -> float:
+        """How far the port has gone down the tool axis (home's z) since the start."""
+        assert self.home is not None
+        axis = rotation_matrix(np.asarray(self.home.quaternion))[:, 2]
+        return float(axis @ (np.asarray(port.position) - np.asarray(self.home.position)))
+
+    def next(self, report: BehaviorReport) -> Decision:
+        if self.pending:  # inside a recovery: its next behavior, whatever this one's exit
+            return self.pending.pop(0)
+        travel = self.travel_m(report.final_port)
+        if report.exit is not ExitCondition.WRENCH_BREACH:
+            return Finish(True, f"insertion ended {report.exit} with no breach, {1000 * travel:.1f} mm down")
+        if travel >= INSERTED_M:
+            return Finish(
+                True, f"breached {1000 * travel:.1f} mm down: past the {1000 * INSERTED_M:.0f} mm mark"
+            )
+        if self.recoveries == MAX_RECOVERIES:
+            return Finish(
+                False, f"still jammed {1000 * travel:.1f} mm down after {MAX_RECOVERIES} recoveries"
+            )
+        self.recoveries += 1
+        why = f"jam {self.recoveries}: breached {report.peak_force:.1f} N only {1000 * travel:.1f} mm down"
+        self.pending = [
+            Step(TWIST, f"{why}; twist-dither to break the wedging"),
+            Step(INSERT, "insert again"),
+        ]
+        return Step(RELIEVE, f"{why}; relieve the wrench first")

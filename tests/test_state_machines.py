@@ -1,0 +1,230 @@
+"""Onboard state machines (paper 2.3): policies that choose the next behavior from the last
+one's report, run headless, from the command line and on the robot as one command."""
+
+import json
+import os
+import subprocess
+import sys
+import threading
+import time
+from concurrent.futures import ProcessPoolExecutor
+
+import httpx
+import numpy as np
+import pytest
+
+from ptwl.launcher import running_server
+from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose, Ptwl
+from robot_sim.params import DitherParams, PtwlParams, RweParams
+from robot_sim.policies import Finish, Machine, Step, run_onboard
+from robot_sim.policies import run as run_module
+from robot_sim.policies import sleeve_on_peg as sleeve
+from robot_sim.policies.sleeve_on_peg import SleeveOnPeg
+from robot_sim.sim import Simulation
+from server.client import RobotClient
+
+DOWN = (0.0, 1.0, 0.0, 0.0)  # tool z pointing down (180 degrees about x): travel is -z in the base
+HOME = Pose((0.378, 0.0, 0.266), DOWN)
+
+
+def report(
+    exit_condition: ExitCondition, depth_m: float, behavior: str = "ptwl", peak: float = 10.0
+) -> BehaviorReport:
+    """A report ending `depth_m` down the tool axis from HOME."""
+    x, y, z = HOME.position
+    return BehaviorReport(
+        behavior, exit_condition, 0.0, 1.0, peak, 0.1, (0.0,) * 6, Pose((x, y, z - depth_m), DOWN)
+    )
+
+
+# ------------------------------------------------------------------ the policy, report by report
+def test_sleeve_policy_completes_when_the_insertion_ends_without_a_breach() -> None:
+    policy = SleeveOnPeg()
+    first = policy.first(HOME)
+    assert isinstance(first.params, PtwlParams) and first.params == sleeve.INSERT
+    decision = policy.next(report(ExitCondition.TIMEOUT, 0.058))
+    assert isinstance(decision, Finish) and decision.completed and "58.0 mm" in decision.why
+
+
+def test_sleeve_policy_recovers_a_jam_with_rwe_dither_ptwl_and_gives_up_after_four() -> None:
+    policy = SleeveOnPeg()
+    policy.first(HOME)
+    for jam in range(1, sleeve.MAX_RECOVERIES + 1):
+        relieve = policy.next(report(ExitCondition.WRENCH_BREACH, 0.026, peak=27.0))
+        assert isinstance(relieve, Step) and isinstance(relieve.params, RweParams)
+        assert f"jam {jam}" in relieve.why and "27.0 N" in relieve.why and "26.0 mm" in relieve.why
+        twist = policy.next(report(ExitCondition.GOAL_REACHED, 0.026, "rwe"))
+        assert isinstance(twist, Step) and isinstance(twist.params, DitherParams)
+        assert twist.params.mode == "torsional" and twist.params.direction == "push"
+        insert = policy.next(report(ExitCondition.WRENCH_BREACH, 0.030, "dither"))  # a dither's breach: go on
+        assert isinstance(insert, Step) and insert.params == sleeve.INSERT
+    gave_up = policy.next(report(ExitCondition.WRENCH_BREACH, 0.027))
+    assert isinstance(gave_up, Finish) and not gave_up.completed and "4 recoveries" in gave_up.why
+
+
+def test_sleeve_policy_counts_a_breach_deep_enough_as_inserted() -> None:
+    policy = SleeveOnPeg()
+    policy.first(HOME)
+    shallow = policy.next(report(ExitCondition.WRENCH_BREACH, sleeve.INSERTED_M - 0.001))
+    assert isinstance(shallow, Step)  # a jam
+    policy = SleeveOnPeg()
+    policy.first(HOME)
+    deep = policy.next(report(ExitCondition.WRENCH_BREACH, sleeve.INSERTED_M + 0.001))
+    assert isinstance(deep, Finish) and deep.completed
+
+
+# ------------------------------------------------------------------ the machine around a policy
+def test_machine_ends_aborted_on_stop_and_fault_without_asking_the_policy() -> None:
+    for ended in (ExitCondition.ABORTED, ExitCondition.FAULT):
+        machine = Machine(SleeveOnPeg())
+        machine.start(HOME)
+        assert machine.advance(report(ended, 0.01)) is None
+        assert machine.exit is ended and len(machine.steps) == 1
+        assert machine.report().exit is ended
+
+
+def test_machine_fails_a_policy_that_never_finishes(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(sleeve, "MAX_RECOVERIES", 10_000)
+    machine = Machine(SleeveOnPeg())
+    step = machine.start(HOME)
+    while step is not None:
+        step = machine.advance(report(ExitCondition.WRENCH_BREACH, 0.02, step.params.type))
+    assert machine.exit is ExitCondition.FAILED and len(machine.steps) == run_module.MAX_STEPS
+    assert "still going" in machine.report().detail
+
+
+def test_machine_report_sums_up_its_steps() -> None:
+    machine = Machine(SleeveOnPeg())
+    machine.start(HOME)
+    machine.advance(report(ExitCondition.WRENCH_BREACH, 0.02, peak=31.0))
+    machine.advance(report(ExitCondition.GOAL_REACHED, 0.02, "rwe", peak=4.0))
+    machine.advance(report(ExitCondition.GOAL_REACHED, 0.04, "dither", peak=12.0))
+    assert machine.advance(report(ExitCondition.TIMEOUT, 0.058, peak=19.0)) is None
+    whole = machine.report()
+    assert whole.exit is ExitCondition.COMPLETED and whole.peak_force == 31.0
+    metrics = run_module.trial_metrics(machine.steps)
+    assert metrics["behaviors"] == 4 and metrics["rwe"] == 1 and metrics["dither"] == 1
+    assert metrics["ptwl"] == {"timeout": 1, "goal_reached": 0, "wrench_breach": 1}
+
+
+# ------------------------------------------------------------------ headless, on the physics
+def seeded_run(seed: int) -> tuple[bool, str, int, float]:
+    run = run_onboard("sleeve_on_peg", seed)
+    return run.success, run.end, len(run.steps), run.as_dict()["max_force_n"]
+
+
+def test_ten_seeds_succeed_onboard_and_the_machine_agrees_with_the_predicate() -> None:
+    with ProcessPoolExecutor(max_workers=os.cpu_count()) as pool:
+        runs = list(pool.map(seeded_run, range(10)))
+    assert all(success and end == "completed" for success, end, _, _ in runs), runs
+    assert all(15.0 <= peak <= 25.0 for *_, peak in runs)  # Table 3: ~19 N pressing on the bottom
+
+
+def test_a_run_that_gives_up_is_failed_and_not_a_success(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The predicate's negative case: a jam the machine may not recover."""
+    monkeypatch.setattr(sleeve, "MAX_RECOVERIES", 0)
+    sim = Simulation("sleeve_on_peg")
+    sim.run_behavior(Ptwl(PtwlParams(rotation=[np.radians(3.0), 0.0, 0.0], duration=1.0)))
+    run = run_onboard("sleeve_on_peg", sim=sim)
+    assert run.end == "failed" and not run.success and run.progress < 0.030
+    assert [s.report.exit for s in run.steps] == [ExitCondition.WRENCH_BREACH]
+
+
+def test_task_command_line_runs_lists_and_benches() -> None:
+    def ptwl(*args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run(
+            [sys.executable, "-m", "ptwl.cli", "task", *args], capture_output=True, text=True, timeout=120
+        )
+
+    listed = ptwl("list")
+    assert listed.returncode == 0 and "sleeve_on_peg" in listed.stdout
+    one = ptwl("run", "sleeve_on_peg", "--seed", "3", "--json")
+    assert one.returncode == 0, one.stderr
+    trial = json.loads(one.stdout)
+    assert trial["success"] is True and trial["end"] == "completed" and trial["behaviors"] == 1
+    assert trial["ptwl"] == {"timeout": 1, "goal_reached": 0, "wrench_breach": 0}
+    assert {"max_force_n", "max_torque_nm", "run_time_s", "rwe", "dither", "sim_time_s"} <= trial.keys()
+    bench = ptwl("bench", "sleeve_on_peg", "--seeds", "2")
+    assert (
+        bench.returncode == 0
+        and "| Success | 2 / 2 |" in bench.stdout
+        and "PTWL (timeout) | 1.00" in bench.stdout
+    )
+    unknown = ptwl("run", "no_such_task")
+    assert unknown.returncode == 2 and "sleeve_on_peg" in unknown.stderr
+
+
+# ------------------------------------------------------------------ on the robot, as one command
+@pytest.fixture(scope="module")
+def sleeve_server():  # type: ignore[no-untyped-def]
+    with running_server("--scene", "sleeve_on_peg") as server:
+        yield server
+
+
+def test_state_machine_command_runs_onboard_and_announces_each_step(sleeve_server) -> None:  # type: ignore[no-untyped-def]
+    events: list[dict] = []
+    with RobotClient(sleeve_server.url) as client:
+        client.reset_scene("sleeve_on_peg")
+        assert [t["name"] for t in httpx.get(sleeve_server.url + "/api/tasks").json()] == ["sleeve_on_peg"]
+
+        def listen() -> None:
+            for message in client.telemetry(idle_s=0.5):
+                if message["type"] == "command":
+                    events.append(message)
+                if events and events[-1]["status"] == "done":
+                    return
+
+        listener = threading.Thread(target=listen, daemon=True)
+        listener.start()
+        time.sleep(0.5)
+        accepted = client.command("state_machine", task="sleeve_on_peg")
+        done = client.wait(accepted.id, timeout=30.0)
+        listener.join(timeout=5.0)
+    assert done.status == "done" and done.exit == "completed" and done.type == "state_machine"
+    assert [s.behavior for s in done.steps] == ["ptwl"] and done.steps[0].exit == "timeout"
+    assert "insert" in done.steps[0].why and "no breach" in done.detail
+    assert 15.0 <= (done.peak_force or 0.0) <= 25.0
+    mine = [e for e in events if e["id"] == accepted.id]
+    # queued, running, the step (still running, now with its step), done: in that order.
+    assert [(e["status"], len(e["steps"])) for e in mine] == [
+        ("queued", 0),
+        ("running", 0),
+        ("running", 1),
+        ("done", 1),
+    ]
+
+
+def test_stop_aborts_a_running_state_machine(sleeve_server) -> None:  # type: ignore[no-untyped-def]
+    with RobotClient(sleeve_server.url) as client:
+        client.reset_scene("sleeve_on_peg")
+        accepted = client.command("state_machine", task="sleeve_on_peg")
+        time.sleep(1.0)
+        client.stop()
+        done = client.wait(accepted.id, timeout=10.0)
+    assert done.exit == "aborted" and [s.exit for s in done.steps] == ["aborted"]
+
+
+@pytest.mark.parametrize(
+    ("body", "fragment"),
+    [
+        ({"type": "state_machine", "task": "no_such_task"}, "task must be one of"),
+        ({"type": "state_machine", "task": "sleeve_on_peg", "speed": 2}, "speed"),
+        ({"type": "state_machine"}, "task"),
+    ],
+)
+def test_a_bad_state_machine_request_is_refused_naming_the_field(
+    sleeve_server, body: dict, fragment: str
+) -> None:  # type: ignore[no-untyped-def]
+    reply = httpx.post(sleeve_server.url + "/api/commands", json=body)
+    assert reply.status_code == 422 and fragment in reply.text
+
+
+def test_a_state_machine_for_another_scene_is_refused(sleeve_server) -> None:  # type: ignore[no-untyped-def]
+    with RobotClient(sleeve_server.url) as client:
+        client.reset_scene("surface")
+        reply = httpx.post(
+            sleeve_server.url + "/api/commands", json={"type": "state_machine", "task": "sleeve_on_peg"}
+        )
+        client.reset_scene("sleeve_on_peg")
+    assert reply.status_code == 422 and "needs scene sleeve_on_peg; surface is loaded" in reply.text
+    assert "task" in reply.json()["errors"][0]["field"]
