@@ -29,6 +29,7 @@ from server.models import (
     RobotStateModel,
     SceneModel,
     StopResult,
+    TaskInfoModel,
     TaskModel,
 )
 
@@ -90,6 +91,10 @@ class RobotClient:
 
     def geometry(self) -> GeometryModel:
         return GeometryModel(**self._request("GET", "/api/geometry"))
+
+    def tasks(self) -> list[TaskInfoModel]:
+        """Tasks with an onboard state machine (run one with `command("state_machine", task=...)`)."""
+        return [TaskInfoModel(**t) for t in self._request("GET", "/api/tasks")]
 
     def scenes(self) -> list[SceneModel]:
         return [SceneModel(**s) for s in self._request("GET", "/api/scenes")]

@@ -357,3 +357,30 @@ def test_every_dither_field_and_the_gains_are_shown(browser, stack, calm) -> Non
     page.close()
     assert record.params["force_threshold"] == 25.0 and record.params["mode"] == "translational"
     assert record.params["direction"] == "pull" and record.params["travel"] == pytest.approx(0.003)
+
+
+def test_a_tasks_state_machine_runs_from_its_tab_and_shows_each_step(browser, stack, calm) -> None:  # type: ignore[no-untyped-def]
+    """Issue 11's console part: pick a task, run its onboard state machine as one command,
+    watch its steps (behavior, exit, why) and its end; a watcher cannot start one."""
+    robot, _, console = stack
+    httpx.post(robot.url + "/api/scene", json={"name": "sleeve_on_peg"}).raise_for_status()
+    watcher = open_console(browser, console.url, control=False)
+    page = open_console(browser, console.url)
+    page.get_by_role("tab", name="Tasks").click()
+    watcher.get_by_role("tab", name="Tasks").click()
+    assert watcher.get_by_role("button", name="Run state machine").is_disabled()
+    assert "twist-dither" in page.get_by_text("on a jam relieve").inner_text()  # the procedure, said
+    before = send(page, "Run state machine")
+    wait_status(page, "running", after=before)
+    page.wait_for_function("document.querySelector('#ptwl-steps')?.dataset.count === '1'", timeout=30_000)
+    wait_status(page, "completed", timeout_s=10.0, after=before)
+    step = page.locator("#ptwl-steps li").first
+    assert step.get_attribute("data-behavior") == "ptwl" and step.get_attribute("data-exit") == "timeout"
+    assert "insert" in step.inner_text()
+    # The watcher's page shows the same machine and steps.
+    watcher.wait_for_function("document.querySelector('#ptwl-steps')?.dataset.count === '1'", timeout=10_000)
+    with RobotClient(robot.url) as client:
+        record = client.commands(limit=1)[0]
+    assert record.type == "state_machine" and record.exit == "completed" and record.sender
+    page.close()
+    watcher.close()

@@ -94,15 +94,16 @@ class ConsoleApp:
         """Wait for the robot (through the link), then build the panels and the scene."""
         waiting = self.server.gui.add_markdown(f"Waiting for the robot at {self.robot_url} ...")
         deadline = time.monotonic() + timeout
-        with ThreadPoolExecutor(3, thread_name_prefix="ptwl-start") as pool:
+        with ThreadPoolExecutor(4, thread_name_prefix="ptwl-start") as pool:
             while True:
-                # Concurrently: over a 3 s round trip, three in a row would take three round trips.
+                # Concurrently: over a 3 s round trip, four in a row would take four round trips.
                 presets_call = pool.submit(self.client.presets)
                 scenes_call = pool.submit(self.client.scenes)
                 geometry_call = pool.submit(self.client.geometry)
+                tasks_call = pool.submit(self.client.tasks)
                 try:
                     presets, scene_list = presets_call.result(), scenes_call.result()
-                    geometry = geometry_call.result()
+                    geometry, tasks = geometry_call.result(), tasks_call.result()
                     break
                 except (RobotError, httpx.HTTPError) as err:
                     if time.monotonic() > deadline:
@@ -110,6 +111,7 @@ class ConsoleApp:
                     time.sleep(1.0)
         waiting.remove()
         self._dither_presets = presets.pop("dither")
+        self._tasks = {t.name: t.summary for t in tasks}
         self._stiffness_presets = presets
         self.scene_name = geometry.scene
         self.view = RobotView(self.server, self.defaults.wrench_arrow_m_per_n)
@@ -138,6 +140,7 @@ class ConsoleApp:
             self.defaults,
             self._stiffness_presets,
             self._dither_presets,
+            self._tasks,
             self.seat,
             self._port,
             self.send,

@@ -1,6 +1,7 @@
 """What every browser shares: the latest command's line, the force/torque plots, the command
 history with the paper's counts, and the scene and link controls."""
 
+import html
 from typing import Any
 
 import viser
@@ -58,8 +59,21 @@ def _command_html(view: Any) -> str:
     return (
         f'<div id="ptwl-command" data-status="{view.status}" data-id="{view.id or ""}" '
         f'style="padding:4px 8px;border-left:6px solid {view.color};font-weight:600">'
-        f"{view.behavior.upper()} {view.label}: {view.status}{extra}{by}</div>"
+        f"{view.behavior.upper()} {view.label}: {view.status}{extra}{by}</div>" + _steps_html(view.steps)
     )
+
+
+def _steps_html(steps: list[dict[str, Any]]) -> str:
+    """A state machine's steps so far: behavior, exit and why the machine chose it."""
+    if not steps:
+        return ""
+    rows = "".join(
+        f'<li data-behavior="{s["behavior"]}" data-exit="{s["exit"]}">{s["behavior"].upper()} → '
+        f"{s['exit']} <span style='color:#868e96'>{html.escape(s['why'])}</span></li>"
+        for s in steps
+    )
+    style = "margin:2px 0 4px 20px;font-size:0.85em"
+    return f'<ol id="ptwl-steps" data-count="{len(steps)}" style="{style}">{rows}</ol>'
 
 
 def _commanded_html(view: Any, distance_mm: float | None = None) -> str:

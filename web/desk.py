@@ -18,6 +18,8 @@ YELLOW = (250, 204, 21)
 SendFn = Callable[["Desk", str, dict[str, Any]], None]
 CheckFn = Callable[[str, dict[str, Any]], Check]
 
+BEHAVIORS = ("ptwl", "rwe", "dither", "state_machine")  # what a desk sends, each from its own tab
+
 
 class Desk:
     def __init__(
@@ -26,6 +28,7 @@ class Desk:
         defaults: ConsoleDefaults,
         stiffness_presets: dict[str, dict[str, Any]],
         dither_presets: dict[str, dict[str, Any]],
+        tasks: dict[str, str],
         seat: ControlSeat,
         port: Callable[[], Pose | None],
         send: SendFn,
@@ -36,7 +39,7 @@ class Desk:
         self._seat = seat
         self._port = port
         self._syncing_gizmo = False
-        self.panel = Panel(client.gui, defaults, stiffness_presets, dither_presets)
+        self.panel = Panel(client.gui, defaults, stiffness_presets, dither_presets, tasks)
         scene = client.scene
         self.contemplated = TargetMarker(
             scene,
@@ -52,9 +55,10 @@ class Desk:
         panel.send_ptwl.on_click(lambda _: send(self, "ptwl", self.params("ptwl")))
         panel.send_rwe.on_click(lambda _: send(self, "rwe", self.params("rwe")))
         panel.send_dither.on_click(lambda _: send(self, "dither", self.params("dither")))
+        panel.send_task.on_click(lambda _: send(self, "state_machine", self.params("state_machine")))
         for field in (panel.translation, panel.rotation, panel.frame, panel.show_gizmo):
             field.on_update(lambda _: self.fields_changed())
-        for behavior in ("ptwl", "rwe", "dither"):
+        for behavior in BEHAVIORS:
             for field in panel.fields(behavior):
                 field.on_update(lambda _, b=behavior: self.recheck(b))
         self.gizmo.on_update(lambda _: self._gizmo_moved())
@@ -69,7 +73,7 @@ class Desk:
         clear_key.on_trigger(lambda _: self.clear_contemplated())
         self._check = check
         self.seat_changed()
-        for behavior in ("ptwl", "rwe", "dither"):
+        for behavior in BEHAVIORS:
             self.recheck(behavior)
 
     @property
@@ -91,7 +95,9 @@ class Desk:
 
     def params(self, behavior: str) -> dict[str, Any]:
         panel = self.panel
-        return {"ptwl": panel.ptwl_params, "rwe": panel.rwe_params, "dither": panel.dither_params}[behavior]()
+        makers = {"ptwl": panel.ptwl_params, "rwe": panel.rwe_params, "dither": panel.dither_params}
+        makers["state_machine"] = panel.task_params
+        return makers[behavior]()
 
     def recheck(self, behavior: str) -> None:
         """Check the request as typed by the robot's own rules; say what they say, at once."""

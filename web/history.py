@@ -43,6 +43,7 @@ class CommandView:
     target: Any = None  # (position, wxyz): predicted at Send, then as the robot resolved it
     resolved: bool = False  # target is the goal the robot computed when the command started
     sender: str | None = None
+    steps: list[dict[str, Any]] = field(default_factory=list)  # a state machine's, as they end
 
     @property
     def label(self) -> str:
@@ -182,6 +183,7 @@ def _apply(view: CommandView, message: dict[str, Any]) -> None:
     view.duration = message.get("duration")
     view.detail = message.get("detail") or ""
     view.sender = message.get("sender") or view.sender
+    view.steps = message.get("steps") or view.steps
     goal = message.get("goal")
     if goal is not None:
         view.target = (goal["position"], goal["quaternion"])

@@ -28,11 +28,13 @@ class Panel:
         defaults: ConsoleDefaults,
         stiffness_presets: dict[str, dict[str, Any]],
         dither_presets: dict[str, dict[str, Any]],
+        tasks: dict[str, str],
     ) -> None:
         self.dither_presets = dither_presets
+        self.tasks = tasks
         self.stiffness_presets = stiffness_presets
         self._mine = False
-        self._valid = {"ptwl": True, "rwe": True, "dither": True}
+        self._valid = {"ptwl": True, "rwe": True, "dither": True, "state_machine": True}
         self.control = gui.add_html(_control_html(False, None), order=FORM_ORDER)
         self.take_control = gui.add_button(
             "Take control", color="teal", hint="become the one operator who can send", order=FORM_ORDER + 0.1
@@ -94,6 +96,15 @@ class Panel:
             self.dither_preset.on_update(lambda _: self.fill_dither_fields())
             self.dither_mode.on_update(lambda _: self._label_amplitude())
             self.fill_dither_fields()
+        with tabs.add_tab("Tasks"):  # a task's onboard state machine, run as one command
+            names = list(tasks) or ["(none)"]
+            self.task = gui.add_dropdown("Task", names, initial_value=names[0])
+            self.task_summary = gui.add_html(_summary_html(tasks.get(names[0], "")))
+            self.task_check = gui.add_html(_check_html("state_machine", "", []))
+            self.send_task = gui.add_button(
+                "Run state machine", color="blue", disabled=True, hint="STOP aborts it like any command"
+            )
+            self.task.on_update(lambda _: self._show_task())
 
         initial = defaults.stiffness_preset if defaults.stiffness_preset in stiffness_presets else None
         self.stiffness = gui.add_dropdown(
@@ -107,7 +118,7 @@ class Panel:
 
     @property
     def send_buttons(self) -> tuple[Any, ...]:
-        return (self.send_ptwl, self.send_rwe, self.send_dither)
+        return (self.send_ptwl, self.send_rwe, self.send_dither, self.send_task)
 
     def fields(self, behavior: str) -> list[Any]:
         """The inputs whose values make up a behavior's request."""
@@ -127,6 +138,8 @@ class Panel:
             ]
         if behavior == "rwe":
             return [*self.rwe_axes.values(), self.rwe_duration]
+        if behavior == "state_machine":
+            return [self.task]
         return [
             self.dither_preset,
             self.dither_mode,
@@ -150,16 +163,18 @@ class Panel:
     def show_check(self, behavior: str, errors: str, warnings: list[str], watchdog_s: float | None) -> None:
         """What the robot's own rules say of the request as typed; Send is off while it is invalid."""
         self._valid[behavior] = not errors
-        {"ptwl": self.ptwl_check, "rwe": self.rwe_check, "dither": self.dither_check}[
-            behavior
-        ].content = _check_html(behavior, errors, warnings)
+        checks = {"ptwl": self.ptwl_check, "rwe": self.rwe_check, "dither": self.dither_check}
+        checks["state_machine"] = self.task_check
+        checks[behavior].content = _check_html(behavior, errors, warnings)
         if behavior == "ptwl" and watchdog_s is not None and self.watchdog_auto.value:
             _set(self.watchdog, round(watchdog_s, 3))
         self.watchdog.disabled = bool(self.watchdog_auto.value)
         self._refresh_buttons()
 
     def _refresh_buttons(self) -> None:
-        for behavior, button in zip(("ptwl", "rwe", "dither"), self.send_buttons, strict=True):
+        for behavior, button in zip(
+            ("ptwl", "rwe", "dither", "state_machine"), self.send_buttons, strict=True
+        ):
             button.disabled = not (self._mine and self._valid[behavior])
 
     def _stiffness_html(self) -> str:
@@ -170,6 +185,9 @@ class Panel:
 
     def _show_stiffness(self) -> None:
         self.stiffness_info.content = self._stiffness_html()
+
+    def _show_task(self) -> None:
+        self.task_summary.content = _summary_html(self.tasks.get(str(self.task.value), ""))
 
     def _label_amplitude(self) -> None:
         self.dither_amplitude.label = AMPLITUDE_LABELS[str(self.dither_mode.value)]
@@ -201,6 +219,9 @@ class Panel:
     def set_ptwl_displacement(self, translation_m: np.ndarray, rotation_rad: np.ndarray) -> None:
         _set(self.translation, np.round(np.asarray(translation_m) * 1000.0, 2))
         _set(self.rotation, np.round(np.degrees(rotation_rad), 2))
+
+    def task_params(self) -> dict[str, Any]:
+        return {"task": str(self.task.value)}
 
     def rwe_params(self) -> dict[str, Any]:
         return {
@@ -280,6 +301,10 @@ def gains_html(stiffness: list[float], damping: list[float], element_id: str, ti
         f"{row('translation', slice(0, 3), 'N/m', 'N s/m')}<br>"
         f"{row('rotation', slice(3, 6), 'N m/rad', 'N m s/rad')}</div>"
     )
+
+
+def _summary_html(summary: str) -> str:
+    return f'<div style="font-size:0.85em;padding:0 4px">{html.escape(summary)}</div>'
 
 
 def _check_html(behavior: str, errors: str, warnings: list[str]) -> str:
