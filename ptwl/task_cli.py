@@ -6,9 +6,14 @@ ptwl task bench TASK [--seeds N]                N trials: success rate and the p
 """
 
 import argparse
+import itertools
 import json
+import os
 import statistics
 import sys
+from concurrent.futures import ProcessPoolExecutor
+
+from tqdm import tqdm
 
 from robot_sim.policies import POLICIES, TaskRun, run_onboard
 from robot_sim.scenes import get_scene
@@ -72,11 +77,12 @@ def bench_table(task: str, runs: list[TaskRun]) -> str:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    runs = []
-    for seed in range(args.seeds):
-        runs.append(run_onboard(args.task, seed))
-        print(f"\r{args.task}: {seed + 1}/{args.seeds} trials", end="", file=sys.stderr, flush=True)
-    print(file=sys.stderr)
+    """Seeds 0..N-1 on every core (each trial is its own simulation: the same numbers whatever
+    the number of workers); a progress bar on a terminal."""
+    seeds = range(args.seeds)
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        trials = pool.map(run_onboard, itertools.repeat(args.task), seeds)
+        runs = list(tqdm(trials, total=len(seeds), desc=args.task, unit="trial", file=sys.stderr))
     print(bench_table(args.task, runs))
     return 0
 
@@ -93,4 +99,5 @@ def add_task_parser(sub: "argparse._SubParsersAction[argparse.ArgumentParser]") 
     bench = verbs.add_parser("bench", help="seeds 0..N-1: success rate and the paper's table of means")
     bench.add_argument("task", choices=list(POLICIES))
     bench.add_argument("--seeds", type=int, default=100)
+    bench.add_argument("--workers", type=int, default=os.cpu_count(), help="processes (default: every core)")
     bench.set_defaults(func=cmd_bench)
