@@ -1,8 +1,8 @@
 """The scene's geometry as plain data, for drawing it elsewhere (the console draws from this).
 
 Every visible geom (groups 0-2) with its body, type, size, pose in the body frame and colour;
-mesh geoms carry their vertices and faces. Bodies say whether they move (part of the arm) and
-where they are now; moving bodies' poses then come with each telemetry message.
+mesh geoms carry their vertices and faces. Bodies say whether they move (the arm, and any part
+not welded to the world) and where they are now; moving bodies' poses then come with each telemetry message.
 """
 
 from typing import Any
@@ -23,8 +23,14 @@ _TYPES = {
 
 
 def moving_bodies(model: mujoco.MjModel) -> list[int]:
-    """Arm links and tool: the bodies whose poses telemetry carries."""
-    return [b for b in range(1, model.nbody) if model.body(b).name.startswith(ARM_PREFIX)]
+    """The bodies whose poses telemetry carries: the arm's (its base too: a console draws the
+    robot whole) and every other body not welded to the world (a fixture's moving parts, such as
+    a latch collar)."""
+    return [
+        b
+        for b in range(1, model.nbody)
+        if model.body(b).name.startswith(ARM_PREFIX) or model.body_weldid[b] != 0
+    ]
 
 
 def body_poses(model: mujoco.MjModel, data: mujoco.MjData, bodies: list[int]) -> dict[str, list[float]]:

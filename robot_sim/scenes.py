@@ -10,6 +10,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+import mujoco
 import numpy as np
 
 from robot_sim.errors import UnknownNameError
@@ -43,6 +44,9 @@ class Scene:
     fixture_body: str | None  # jittered by a seed
     jitter_m: float
     predicate: "Callable[[Simulation], TaskProgress]"
+    # A fixture's own logic, bound to the loaded model and run every control tick: what MJCF
+    # cannot say (a latch that catches and stays caught).
+    mechanism: Callable[[mujoco.MjModel], Callable[[mujoco.MjData], None]] | None = None
 
 
 def _reach_goal(sim: "Simulation") -> TaskProgress:
@@ -67,6 +71,30 @@ def sleeve_insertion_depth(sim: "Simulation") -> float:
 def _sleeve_on_peg(sim: "Simulation") -> TaskProgress:
     depth = sleeve_insertion_depth(sim)
     return TaskProgress("sleeve over the peg, insertion depth >= 30 mm", depth >= 0.030, depth, 0.030, "m")
+
+
+LATCH_STROKE_M = 0.0035  # quick_connect: collar travel at which the latch catches
+
+
+def _quick_connect_latch(model: mujoco.MjModel) -> Callable[[mujoco.MjData], None]:
+    """Catch the latch once the collar has been pushed through its stroke (25-29.4 N of spring
+    preload); the `latch` equality then holds the collar there, as the real coupling's balls do."""
+    latch = model.equality("latch").id
+    collar = model.jnt_qposadr[model.joint("collar_slide").id]
+
+    def tick(data: mujoco.MjData) -> None:
+        if not data.eq_active[latch] and data.qpos[collar] >= LATCH_STROKE_M:
+            data.eq_active[latch] = 1
+
+    return tick
+
+
+def _quick_connect(sim: "Simulation") -> TaskProgress:
+    travel = float(sim.data.qpos[sim.model.jnt_qposadr[sim.model.joint("collar_slide").id]])
+    latched = bool(sim.data.eq_active[sim.model.equality("latch").id])
+    return TaskProgress(
+        "coupling latched (collar pushed 3.5 mm, 25-30 N)", latched, travel, LATCH_STROKE_M, "m"
+    )
 
 
 SCENES: dict[str, Scene] = {
@@ -102,6 +130,18 @@ SCENES: dict[str, Scene] = {
             "peg_base",
             0.001,
             _sleeve_on_peg,
+        ),
+        Scene(
+            "quick_connect",
+            "The female half of a pneumatic quick-disconnect under the male plug; latching takes "
+            "25-30 N (paper 2.3.6); a seed moves the receptacle up to 2 mm in x and y.",
+            "quick_connect.xml",
+            "male_coupling.xml",
+            HOME_TOOL_DOWN,
+            "receptacle",
+            0.002,
+            _quick_connect,
+            _quick_connect_latch,
         ),
     )
 }

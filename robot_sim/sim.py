@@ -140,6 +140,7 @@ class Simulation:
         self.model = model
         self.data = data
         self.layout = layout
+        self._mechanism = spec.mechanism(model) if spec.mechanism is not None else None
         self.payload = Payload.from_model(model, layout)
         keep: Gains = gains if gains is not None else self.controller.gains
         self.controller = AdmittanceController(
@@ -179,6 +180,8 @@ class Simulation:
                     report = self._finish(exit_condition)
             ctl.command()
             mujoco.mj_step(self.model, data, self.n_substeps)
+            if self._mechanism is not None:
+                self._mechanism(data)
             if data.time <= now:
                 # MuJoCo resets the data (time included) when qpos/qvel/qacc go bad.
                 raise SimulationFault(f"MuJoCo found the simulation unstable: {_warnings(data)}")

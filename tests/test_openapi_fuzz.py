@@ -64,7 +64,12 @@ def test_the_document_says_what_main_left_out(stack: tuple[ServiceProcess, Servi
     assert schemas["ValidationErrorModel"]["properties"]["detail"]["type"] == "string"
     for behavior in ("PtwlParams", "RweParams", "DitherParams"):
         assert "type" in schemas[behavior]["required"], behavior
-    assert schemas["SceneRequest"]["properties"]["name"]["enum"] == ["free_space", "surface", "sleeve_on_peg"]
+    assert schemas["SceneRequest"]["properties"]["name"]["enum"] == [
+        "free_space",
+        "surface",
+        "sleeve_on_peg",
+        "quick_connect",
+    ]
     assert schemas["PtwlParams"]["properties"]["force_threshold"]["maximum"] == 500.0
     post = document["paths"]["/api/commands"]["post"]["responses"]
     assert {"202", "400", "401", "403", "413", "422", "429"} <= set(post)

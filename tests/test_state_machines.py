@@ -53,7 +53,7 @@ def test_sleeve_policy_recovers_a_jam_with_rwe_dither_ptwl_and_gives_up_after_fo
         relieve = policy.next(report(ExitCondition.WRENCH_BREACH, 0.026, peak=27.0))
         assert isinstance(relieve, Step) and isinstance(relieve.params, RweParams)
         assert f"jam {jam}" in relieve.why and "27.0 N" in relieve.why and "26.0 mm" in relieve.why
-        twist = policy.next(report(ExitCondition.GOAL_REACHED, 0.026, "rwe"))
+        twist = policy.next(report(ExitCondition.COMPLETED, 0.026, "rwe"))
         assert isinstance(twist, Step) and isinstance(twist.params, DitherParams)
         assert twist.params.mode == "torsional" and twist.params.direction == "push"
         insert = policy.next(report(ExitCondition.WRENCH_BREACH, 0.030, "dither"))  # a dither's breach: go on
@@ -97,7 +97,7 @@ def test_machine_report_sums_up_its_steps() -> None:
     machine = Machine(SleeveOnPeg())
     machine.start(HOME)
     machine.advance(report(ExitCondition.WRENCH_BREACH, 0.02, peak=31.0))
-    machine.advance(report(ExitCondition.GOAL_REACHED, 0.02, "rwe", peak=4.0))
+    machine.advance(report(ExitCondition.COMPLETED, 0.02, "rwe", peak=4.0))
     machine.advance(report(ExitCondition.GOAL_REACHED, 0.04, "dither", peak=12.0))
     assert machine.advance(report(ExitCondition.TIMEOUT, 0.058, peak=19.0)) is None
     whole = machine.report()
@@ -165,7 +165,8 @@ def test_state_machine_command_runs_onboard_and_announces_each_step(sleeve_serve
     events: list[dict] = []
     with RobotClient(sleeve_server.url) as client:
         client.reset_scene("sleeve_on_peg")
-        assert [t["name"] for t in httpx.get(sleeve_server.url + "/api/tasks").json()] == ["sleeve_on_peg"]
+        listed = [t["name"] for t in httpx.get(sleeve_server.url + "/api/tasks").json()]
+        assert listed == ["sleeve_on_peg", "quick_connect"]
 
         def listen() -> None:
             for message in client.telemetry(idle_s=0.5):

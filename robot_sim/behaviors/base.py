@@ -20,7 +20,7 @@ class ExitCondition(StrEnum):
     GOAL_REACHED = "goal_reached"
     WRENCH_BREACH = "wrench_breach"
     TIMEOUT = "timeout"
-    COMPLETED = "completed"  # a state machine that believes its task done
+    COMPLETED = "completed"  # an RWE that relieved; a state machine that believes its task done
     FAILED = "failed"  # a state machine that gave up (its report's detail says why)
     ABORTED = "aborted"
     FAULT = "fault"

@@ -18,14 +18,13 @@ It judges depth only by how far the port has travelled down the tool axis since 
 sleeve's mouth is nominally 21 mm below home), never by the simulator's predicate.
 """
 
-import numpy as np
-
 from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
 from robot_sim.params import DitherParams, PtwlParams, RweParams
 from robot_sim.policies.base import Decision, Finish, Policy, Step
-from robot_sim.pose_math import rotation_matrix
+from robot_sim.policies.travel import travel_down_tool_axis_m
 
-INSERT = PtwlParams(translation=[0.0, 0.0, 0.07], duration=7.0, force_threshold=25.0)
+# `medium` named: a state machine must not inherit whatever gains the last operator left.
+INSERT = PtwlParams(translation=[0.0, 0.0, 0.07], duration=7.0, force_threshold=25.0, preset="medium")
 RELIEVE = RweParams(duration=1.0)
 TWIST = DitherParams(preset="torsional_push")
 MAX_RECOVERIES = 4
@@ -45,16 +44,11 @@ class SleeveOnPeg(Policy):
         self.home = port
         return Step(INSERT, "insert: PTWL 70 mm down the tool axis, 9 mm past the sleeve's bottom")
 
-    def travel_m(self, port: Pose) -> float:
-        """How far the port has gone down the tool axis (home's z) since the start."""
-        assert self.home is not None
-        axis = rotation_matrix(np.asarray(self.home.quaternion))[:, 2]
-        return float(axis @ (np.asarray(port.position) - np.asarray(self.home.position)))
-
     def next(self, report: BehaviorReport) -> Decision:
         if self.pending:  # inside a recovery: its next behavior, whatever this one's exit
             return self.pending.pop(0)
-        travel = self.travel_m(report.final_port)
+        assert self.home is not None
+        travel = travel_down_tool_axis_m(self.home, report.final_port)
         if report.exit is not ExitCondition.WRENCH_BREACH:
             return Finish(True, f"insertion ended {report.exit} with no breach, {1000 * travel:.1f} mm down")
         if travel >= INSERTED_M:

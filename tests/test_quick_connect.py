@@ -1,0 +1,110 @@
+"""Quick-disconnect coupling (paper 2.3.6): a snap fit needing 25-30 N, and its state machine."""
+
+import os
+from concurrent.futures import ProcessPoolExecutor
+
+import pytest
+
+from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose, Ptwl, Rwe
+from robot_sim.geometry import body_poses, moving_bodies
+from robot_sim.params import DitherParams, PtwlParams, RweParams
+from robot_sim.policies import Finish, Step, run_onboard
+from robot_sim.policies import quick_connect as qc
+from robot_sim.scenes import LATCH_STROKE_M
+from robot_sim.sim import Simulation
+
+DOWN = (0.0, 1.0, 0.0, 0.0)
+HOME = Pose((0.378, 0.0, 0.2765), DOWN)
+
+
+def at(
+    depth_m: float, exit_condition: ExitCondition, behavior: str = "ptwl", peak: float = 30.0
+) -> BehaviorReport:
+    x, y, z = HOME.position
+    return BehaviorReport(
+        behavior, exit_condition, 0.0, 1.0, peak, 0.1, (0.0,) * 6, Pose((x, y, z - depth_m), DOWN)
+    )
+
+
+def collar_m(sim: Simulation) -> float:
+    return float(sim.data.qpos[sim.model.jnt_qposadr[sim.model.joint("collar_slide").id]])
+
+
+# -------------------------------------------------------------------------- the policy
+def test_policy_relieves_once_seated_then_completes() -> None:
+    policy = qc.QuickConnect()
+    assert policy.first(HOME).params.force_threshold == 35.0  # above the latch's 25-30 N
+    relieve = policy.next(at(0.0405, ExitCondition.WRENCH_BREACH, peak=35.2))
+    assert (
+        isinstance(relieve, Step)
+        and isinstance(relieve.params, RweParams)
+        and "seated 40.5 mm" in relieve.why
+    )
+    done = policy.next(at(0.0402, ExitCondition.COMPLETED, "rwe"))
+    assert isinstance(done, Finish) and done.completed and "latched at 40.5 mm" in done.why
+
+
+def test_policy_recovers_a_short_insertion_and_gives_up_after_three() -> None:
+    policy = qc.QuickConnect()
+    policy.first(HOME)
+    for short in range(1, qc.MAX_RECOVERIES + 1):
+        relieve = policy.next(at(0.022, ExitCondition.WRENCH_BREACH, peak=36.0))
+        assert (
+            isinstance(relieve, Step)
+            and isinstance(relieve.params, RweParams)
+            and f"short {short}" in relieve.why
+        )
+        twist = policy.next(at(0.022, ExitCondition.COMPLETED, "rwe"))
+        assert isinstance(twist, Step) and isinstance(twist.params, DitherParams)
+        insert = policy.next(at(0.025, ExitCondition.TIMEOUT, "dither"))
+        assert isinstance(insert, Step) and insert.params == qc.INSERT
+    gave_up = policy.next(at(0.022, ExitCondition.WRENCH_BREACH))
+    assert isinstance(gave_up, Finish) and not gave_up.completed and "3 recoveries" in gave_up.why
+
+
+def test_policy_treats_a_stop_at_the_collar_as_short_whatever_the_exit() -> None:
+    policy = qc.QuickConnect()
+    policy.first(HOME)
+    decision = policy.next(at(qc.SEATED_M - 0.001, ExitCondition.TIMEOUT))
+    assert isinstance(decision, Step) and "short 1" in decision.why
+
+
+# -------------------------------------------------------------------------- the physics
+def test_the_latch_needs_25_to_30_n_and_the_default_threshold_stops_at_the_collar() -> None:
+    sim = Simulation("quick_connect")
+    report = sim.run_behavior(Ptwl(PtwlParams(translation=[0.0, 0.0, 0.06], duration=6.0)))  # 20 N
+    assert report.exit is ExitCondition.WRENCH_BREACH and not sim.task().success
+    assert collar_m(sim) < LATCH_STROKE_M  # pushed on the collar, did not get it through
+    # Pushed through at up to 35 N: it latches, and the latch holds once the press is relieved.
+    sim = Simulation("quick_connect")
+    collar = sim.model.body("collar").id
+    assert collar in moving_bodies(sim.model)  # telemetry carries it: a console draws it moving
+    z_before = body_poses(sim.model, sim.data, [collar])["collar"][2]
+    pushed = sim.run_behavior(Ptwl(qc.INSERT))
+    assert sim.task().success and 25.0 <= pushed.peak_force <= 36.0
+    assert sim.run_behavior(Rwe(qc.RELIEVE)).exit is ExitCondition.COMPLETED
+    for _ in range(2000):
+        sim.step()
+    assert sim.task().success and collar_m(sim) == pytest.approx(LATCH_STROKE_M, abs=3e-4)
+    z_after = body_poses(sim.model, sim.data, [collar])["collar"][2]
+    assert z_before - z_after == pytest.approx(LATCH_STROKE_M, abs=3e-4)
+
+
+def seeded(seed: int) -> tuple[bool, str, float, int]:
+    run = run_onboard("quick_connect", seed)
+    return run.success, run.end, run.as_dict()["max_force_n"], len(run.steps)
+
+
+def test_ten_seeds_latch_onboard_and_the_machine_agrees() -> None:
+    with ProcessPoolExecutor(max_workers=os.cpu_count()) as pool:
+        runs = list(pool.map(seeded, range(10)))
+    assert all(success and end == "completed" for success, end, _, _ in runs), runs
+    assert all(25.0 <= peak <= 40.0 for _, _, peak, _ in runs), runs  # the latch's force, under the limit
+
+
+def test_a_machine_that_pushes_too_softly_fails_and_is_not_a_success(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The predicate's negative case: 20 N never gets the latch through."""
+    monkeypatch.setattr(qc, "INSERT", qc.INSERT.model_copy(update={"force_threshold": 20.0}))
+    monkeypatch.setattr(qc, "MAX_RECOVERIES", 0)
+    run = run_onboard("quick_connect", 0)
+    assert run.end == "failed" and not run.success and run.progress < LATCH_STROKE_M
