@@ -2,6 +2,7 @@
 
 import numpy as np
 
+from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
 from robot_sim.gains import Gains
 from robot_sim.pose_math import rotate_world
 from robot_sim.sim import Simulation
@@ -38,3 +39,17 @@ def step_response(sim: Simulation, axis: int, step: float, seconds: float) -> tu
         times.append(sim.time)
         errors.append(float(np.sign(step)) * ctl.stretch_world()[axis])
     return np.array(times) - times[0], np.array(errors)
+
+
+DOWN_WXYZ = (0.0, 1.0, 0.0, 0.0)  # tool z pointing down (180 degrees about x): travel is -z in the base
+
+
+def report_down(
+    home: Pose, exit_condition: ExitCondition, depth_m: float, behavior: str = "ptwl", peak: float = 10.0
+) -> BehaviorReport:
+    """A behavior's report ending `depth_m` down the tool axis from `home` (tool pointing down):
+    what a state machine judges depth by."""
+    x, y, z = home.position
+    return BehaviorReport(
+        behavior, exit_condition, 0.0, 1.0, peak, 0.1, (0.0,) * 6, Pose((x, y, z - depth_m), DOWN_WXYZ)
+    )

@@ -12,18 +12,15 @@ from robot_sim.policies import Finish, Step, run_onboard
 from robot_sim.policies import quick_connect as qc
 from robot_sim.scenes import LATCH_STROKE_M
 from robot_sim.sim import Simulation
+from tests.helpers import DOWN_WXYZ, report_down
 
-DOWN = (0.0, 1.0, 0.0, 0.0)
-HOME = Pose((0.378, 0.0, 0.2765), DOWN)
+HOME = Pose((0.378, 0.0, 0.2765), DOWN_WXYZ)
 
 
 def at(
     depth_m: float, exit_condition: ExitCondition, behavior: str = "ptwl", peak: float = 30.0
 ) -> BehaviorReport:
-    x, y, z = HOME.position
-    return BehaviorReport(
-        behavior, exit_condition, 0.0, 1.0, peak, 0.1, (0.0,) * 6, Pose((x, y, z - depth_m), DOWN)
-    )
+    return report_down(HOME, exit_condition, depth_m, behavior, peak)
 
 
 def collar_m(sim: Simulation) -> float:

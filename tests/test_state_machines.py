@@ -22,19 +22,15 @@ from robot_sim.policies import sleeve_on_peg as sleeve
 from robot_sim.policies.sleeve_on_peg import SleeveOnPeg
 from robot_sim.sim import Simulation
 from server.client import RobotClient
+from tests.helpers import DOWN_WXYZ, report_down
 
-DOWN = (0.0, 1.0, 0.0, 0.0)  # tool z pointing down (180 degrees about x): travel is -z in the base
-HOME = Pose((0.378, 0.0, 0.266), DOWN)
+HOME = Pose((0.378, 0.0, 0.266), DOWN_WXYZ)
 
 
 def report(
     exit_condition: ExitCondition, depth_m: float, behavior: str = "ptwl", peak: float = 10.0
 ) -> BehaviorReport:
-    """A report ending `depth_m` down the tool axis from HOME."""
-    x, y, z = HOME.position
-    return BehaviorReport(
-        behavior, exit_condition, 0.0, 1.0, peak, 0.1, (0.0,) * 6, Pose((x, y, z - depth_m), DOWN)
-    )
+    return report_down(HOME, exit_condition, depth_m, behavior, peak)
 
 
 # ------------------------------------------------------------------ the policy, report by report
