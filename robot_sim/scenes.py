@@ -41,12 +41,23 @@ class Scene:
     scene_file: str
     tool_file: str
     home_qpos: tuple[float, ...]
-    fixture_body: str | None  # jittered by a seed
+    fixture_body: str | None  # moved by a seed (see fixture_offset)
     jitter_m: float
     predicate: "Callable[[Simulation], TaskProgress]"
     # A fixture's own logic, bound to the loaded model and run every control tick: what MJCF
     # cannot say (a latch that catches and stays caught).
     mechanism: Callable[[mujoco.MjModel], Callable[[mujoco.MjData], None]] | None = None
+    # (min, max) [m]: a seed puts the fixture this far off its place in a random direction
+    # (when the task needs a real misalignment); otherwise anywhere within +-jitter_m in x, y.
+    offset_range_m: tuple[float, float] | None = None
+
+
+def fixture_offset(scene: Scene, rng: np.random.Generator) -> np.ndarray:
+    """[m] (dx, dy) a seed moves the scene's fixture by: the one place the seeded layouts live."""
+    if scene.offset_range_m is not None:
+        distance, heading = rng.uniform(*scene.offset_range_m), rng.uniform(0.0, 2.0 * math.pi)
+        return distance * np.array([math.cos(heading), math.sin(heading)])
+    return rng.uniform(-scene.jitter_m, scene.jitter_m, 2)
 
 
 def _reach_goal(sim: "Simulation") -> TaskProgress:
@@ -97,6 +108,23 @@ def _quick_connect(sim: "Simulation") -> TaskProgress:
     )
 
 
+LID_SEATED_M = 0.0135  # lid underside this far below the lip's top: on the pan's floor (15 mm)
+LID_RADIAL_PLAY_M = 0.0025  # lip's inner radius minus the lid's
+
+
+def _lid(sim: "Simulation") -> TaskProgress:
+    m, d = sim.model, sim.data
+    port = sim.controller.p_world_port
+    depth = float(d.site_xpos[m.site("lip_top").id][2] - port[2])
+    off_axis = float(np.linalg.norm((port - d.site_xpos[m.site("pan_centre").id])[0:2]))
+    tool_z = d.site_xmat[sim.layout.port_site].reshape(3, 3)[:, 2]
+    tilt_deg = math.degrees(math.acos(float(np.clip(-tool_z[2], -1.0, 1.0))))  # tool z points down
+    seated = depth >= LID_SEATED_M and tilt_deg < 2.0 and off_axis <= LID_RADIAL_PLAY_M + 0.0005
+    return TaskProgress(
+        "lid seated flat inside the lip (on the floor, tilt < 2 deg)", seated, depth, LID_SEATED_M, "m"
+    )
+
+
 SCENES: dict[str, Scene] = {
     s.name: s
     for s in (
@@ -142,6 +170,18 @@ SCENES: dict[str, Scene] = {
             0.002,
             _quick_connect,
             _quick_connect_latch,
+        ),
+        Scene(
+            "lid",
+            "A wide, shallow pan under a 200 mm lid with 2.5 mm of radial play; a seed puts the pan "
+            "4 to 12 mm off the tool axis in a random direction (paper 2.3.9: offset d < d_max).",
+            "lid.xml",
+            "lid_tool.xml",
+            HOME_TOOL_DOWN,
+            "pan",
+            0.0,
+            _lid,
+            offset_range_m=(0.004, 0.012),
         ),
     )
 }

@@ -62,13 +62,14 @@ def test_the_document_says_what_main_left_out(stack: tuple[ServiceProcess, Servi
     document = httpx.get(stack[0].url + "/openapi.json").json()
     schemas = document["components"]["schemas"]
     assert schemas["ValidationErrorModel"]["properties"]["detail"]["type"] == "string"
-    for behavior in ("PtwlParams", "RweParams", "DitherParams"):
+    for behavior in ("PtwlParams", "RweParams", "DitherParams", "StateMachineParams"):
         assert "type" in schemas[behavior]["required"], behavior
     assert schemas["SceneRequest"]["properties"]["name"]["enum"] == [
         "free_space",
         "surface",
         "sleeve_on_peg",
         "quick_connect",
+        "lid",
     ]
     assert schemas["PtwlParams"]["properties"]["force_threshold"]["maximum"] == 500.0
     post = document["paths"]["/api/commands"]["post"]["responses"]

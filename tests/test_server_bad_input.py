@@ -173,7 +173,8 @@ def test_unknown_scene_lists_the_valid_ones(
     response = httpx.post(server.url + "/api/scene", json={"name": "moon"})
     assert response.status_code == 422
     assert (
-        response.json()["detail"] == "name: unknown scene 'moon'; valid: free_space, sleeve_on_peg, surface"
+        response.json()["detail"]
+        == "name: unknown scene 'moon'; valid: free_space, lid, quick_connect, sleeve_on_peg, surface"
     )
     assert_nothing_lost(robot, running, queued, before)
 

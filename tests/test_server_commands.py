@@ -129,7 +129,13 @@ def test_scene_reset_with_seed_and_task(robot: RobotClient) -> None:
     assert task.scene == "sleeve_on_peg" and not task.success
     assert task.progress == pytest.approx(-0.0206, abs=0.003)
     assert robot.state().scene == "sleeve_on_peg"
-    assert {s.name for s in robot.scenes()} == {"free_space", "surface", "sleeve_on_peg", "quick_connect"}
+    assert {s.name for s in robot.scenes()} == {
+        "free_space",
+        "surface",
+        "sleeve_on_peg",
+        "quick_connect",
+        "lid",
+    }
 
 
 def test_presets_by_name(robot: RobotClient) -> None:

@@ -162,7 +162,7 @@ def test_state_machine_command_runs_onboard_and_announces_each_step(sleeve_serve
     with RobotClient(sleeve_server.url) as client:
         client.reset_scene("sleeve_on_peg")
         listed = [t["name"] for t in httpx.get(sleeve_server.url + "/api/tasks").json()]
-        assert listed == ["sleeve_on_peg", "quick_connect"]
+        assert listed == ["sleeve_on_peg", "quick_connect", "lid"]
 
         def listen() -> None:
             for message in client.telemetry(idle_s=0.5):

@@ -11,12 +11,13 @@ from typing import Any
 from robot_sim.behaviors import behavior_for
 from robot_sim.errors import UnknownNameError
 from robot_sim.policies.base import Decision, Finish, Policy, Step
+from robot_sim.policies.lid import Lid
 from robot_sim.policies.quick_connect import QuickConnect
 from robot_sim.policies.run import Machine, StepRecord, trial_metrics
 from robot_sim.policies.sleeve_on_peg import SleeveOnPeg
 from robot_sim.sim import Simulation
 
-POLICIES: dict[str, type[Policy]] = {p.task: p for p in (SleeveOnPeg, QuickConnect)}
+POLICIES: dict[str, type[Policy]] = {p.task: p for p in (SleeveOnPeg, QuickConnect, Lid)}
 
 
 def policy_for(task: str) -> Policy:
