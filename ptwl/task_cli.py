@@ -22,7 +22,22 @@ from robot_sim.scenes import get_scene
 def cmd_list(_: argparse.Namespace) -> int:
     for name, policy in POLICIES.items():
         print(f"{name:16s} {policy.summary}\n{'':16s} scene: {get_scene(name).description}")
+        for setting, schema in policy.settings_model.model_json_schema()["properties"].items():
+            print(f"{'':16s} --set {setting}=  (default {schema['default']}) {schema.get('description', '')}")
     return 0
+
+
+def overrides(task: str, pairs: list[str]) -> dict[str, object]:
+    """`--set NAME=VALUE` (VALUE as JSON: 0, 12.5, true), checked by the task's settings."""
+    out: dict[str, object] = {}
+    for pair in pairs:
+        name, _, value = pair.partition("=")
+        try:
+            out[name] = json.loads(value)
+        except json.JSONDecodeError:
+            raise ValueError(f"--set {pair}: the value must be JSON (a number, true or false)") from None
+    POLICIES[task].settings_model.model_validate(out)  # a ValidationError names the setting
+    return out
 
 
 def run_line(run: TaskRun) -> str:
@@ -38,7 +53,7 @@ def run_line(run: TaskRun) -> str:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    run = run_onboard(args.task, args.seed)
+    run = run_onboard(args.task, args.seed, overrides=overrides(args.task, args.set))
     if args.json:
         print(json.dumps(run.as_dict()))
     else:
@@ -81,7 +96,13 @@ def cmd_bench(args: argparse.Namespace) -> int:
     the number of workers); a progress bar on a terminal."""
     seeds = range(args.seeds)
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
-        trials = pool.map(run_onboard, itertools.repeat(args.task), seeds)
+        trials = pool.map(
+            run_onboard,
+            itertools.repeat(args.task),
+            seeds,
+            itertools.repeat(None),
+            itertools.repeat(overrides(args.task, args.set)),
+        )
         runs = list(tqdm(trials, total=len(seeds), desc=args.task, unit="trial", file=sys.stderr))
     print(bench_table(args.task, runs))
     return 0
@@ -95,9 +116,11 @@ def add_task_parser(sub: "argparse._SubParsersAction[argparse.ArgumentParser]") 
     run.add_argument("task", choices=list(POLICIES))
     run.add_argument("--seed", type=int, default=None, help="the scene's misalignments (default: nominal)")
     run.add_argument("--json", action="store_true", help="one JSON object instead of text")
+    run.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="override a setting")
     run.set_defaults(func=cmd_run)
     bench = verbs.add_parser("bench", help="seeds 0..N-1: success rate and the paper's table of means")
     bench.add_argument("task", choices=list(POLICIES))
     bench.add_argument("--seeds", type=int, default=100)
     bench.add_argument("--workers", type=int, default=os.cpu_count(), help="processes (default: every core)")
+    bench.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="override a setting")
     bench.set_defaults(func=cmd_bench)

@@ -13,6 +13,7 @@ from pydantic import (
     Field,
     GetCoreSchemaHandler,
     GetJsonSchemaHandler,
+    ValidationError,
     ValidatorFunctionWrapHandler,
     WrapValidator,
     field_validator,
@@ -296,6 +297,12 @@ class StateMachineParams(StrictModel):
     type: Literal["state_machine"] = Field("state_machine", description="command: state_machine")
     task: str = Field(description="which task's state machine (GET /api/tasks lists them)")
 
+    overrides: dict[str, Any] = Field(
+        default_factory=dict,
+        description="the state machine's settings to change, e.g. {\"max_recoveries\": 0}; each task's "
+        "settings and ranges are in GET /api/tasks",
+    )
+
     @field_validator("task")
     @classmethod
     def _known(cls, task: str) -> str:
@@ -304,3 +311,14 @@ class StateMachineParams(StrictModel):
         if task not in POLICIES:
             raise ValueError(f"task must be one of {', '.join(sorted(POLICIES))}, got {task!r}")
         return task
+
+    @model_validator(mode="after")
+    def _overrides_fit_the_task(self) -> Self:
+        from robot_sim.policies import POLICIES
+
+        try:
+            POLICIES[self.task].settings_model.model_validate(self.overrides)
+        except ValidationError as err:
+            said = "; ".join(f"{'.'.join(map(str, e['loc']))}: {e['msg']}" for e in err.errors())
+            raise ValueError(f"overrides for {self.task}: {said}") from None
+        return self

@@ -183,6 +183,10 @@ class TaskInfoModel(BaseModel):
         description="task name for a `state_machine` command; it runs on the scene of that name"
     )
     summary: str = Field(description="its state machine's procedure in a line")
+    settings: dict[str, Any] = Field(
+        description="what a state_machine command's `overrides` may set: JSON schema per setting "
+        "(type, default, range, description)"
+    )
 
 
 class GeomModel(BaseModel):

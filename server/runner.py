@@ -129,7 +129,7 @@ class SimRunner:
         def start(record: CommandRecord) -> Pose | None:
             params = record.params
             if isinstance(params, StateMachineParams):  # onboard: each next step at once
-                self._machine = Machine(policy_for(params.task))
+                self._machine = Machine(policy_for(params.task, params.overrides))
                 self.sim.start(behavior_for(self._machine.start(self.sim.state().port).params))
                 return None
             behavior = behavior_for(params)

@@ -53,7 +53,7 @@ def test_policy_seats_then_relieves_then_completes_and_gives_up_on_the_lip() -> 
     assert isinstance(done, Finish) and done.completed
     stuck = lid.Lid()
     stuck.first(HOME)
-    for _ in range(lid.MAX_SLIDES):  # read, slide; read, slide; ...
+    for _ in range(stuck.settings.max_recoveries):  # read, slide; read, slide; ...
         read = stuck.next(touching((0.1, 0.0)))
         assert isinstance(read, Step) and read.params == lid.READ
         slide = stuck.next(touching((0.1, 0.0)))

@@ -44,7 +44,7 @@ def test_policy_relieves_once_seated_then_completes() -> None:
 def test_policy_recovers_a_short_insertion_and_gives_up_after_three() -> None:
     policy = qc.QuickConnect()
     policy.first(HOME)
-    for short in range(1, qc.MAX_RECOVERIES + 1):
+    for short in range(1, policy.settings.max_recoveries + 1):
         relieve = policy.next(at(0.022, ExitCondition.WRENCH_BREACH, peak=36.0))
         assert (
             isinstance(relieve, Step)
@@ -99,9 +99,7 @@ def test_ten_seeds_latch_onboard_and_the_machine_agrees() -> None:
     assert all(25.0 <= peak <= 40.0 for _, _, peak, _ in runs), runs  # the latch's force, under the limit
 
 
-def test_a_machine_that_pushes_too_softly_fails_and_is_not_a_success(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_machine_that_pushes_too_softly_fails_and_is_not_a_success() -> None:
     """The predicate's negative case: 20 N never gets the latch through."""
-    monkeypatch.setattr(qc, "INSERT", qc.INSERT.model_copy(update={"force_threshold": 20.0}))
-    monkeypatch.setattr(qc, "MAX_RECOVERIES", 0)
-    run = run_onboard("quick_connect", 0)
+    run = run_onboard("quick_connect", 0, overrides={"insert_force_threshold": 20.0, "max_recoveries": 0})
     assert run.end == "failed" and not run.success and run.progress < LATCH_STROKE_M

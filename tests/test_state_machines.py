@@ -16,7 +16,7 @@ import pytest
 from ptwl.launcher import running_server
 from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose, Ptwl
 from robot_sim.params import DitherParams, PtwlParams, RweParams
-from robot_sim.policies import Finish, Machine, Step, run_onboard
+from robot_sim.policies import Finish, Machine, Policy, Step, run_onboard
 from robot_sim.policies import run as run_module
 from robot_sim.policies import sleeve_on_peg as sleeve
 from robot_sim.policies.sleeve_on_peg import SleeveOnPeg
@@ -45,7 +45,7 @@ def test_sleeve_policy_completes_when_the_insertion_ends_without_a_breach() -> N
 def test_sleeve_policy_recovers_a_jam_with_rwe_dither_ptwl_and_gives_up_after_four() -> None:
     policy = SleeveOnPeg()
     policy.first(HOME)
-    for jam in range(1, sleeve.MAX_RECOVERIES + 1):
+    for jam in range(1, policy.settings.max_recoveries + 1):
         relieve = policy.next(report(ExitCondition.WRENCH_BREACH, 0.026, peak=27.0))
         assert isinstance(relieve, Step) and isinstance(relieve.params, RweParams)
         assert f"jam {jam}" in relieve.why and "27.0 N" in relieve.why and "26.0 mm" in relieve.why
@@ -79,12 +79,24 @@ def test_machine_ends_aborted_on_stop_and_fault_without_asking_the_policy() -> N
         assert machine.report().exit is ended
 
 
-def test_machine_fails_a_policy_that_never_finishes(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(sleeve, "MAX_RECOVERIES", 10_000)
-    machine = Machine(SleeveOnPeg())
+class Forever(Policy):
+    """Never finishes: the machine must end it."""
+
+    task = "forever"
+    summary = "RWE, again and again"
+
+    def first(self, port: Pose) -> Step:
+        return Step(RweParams(), "start")
+
+    def next(self, report: BehaviorReport) -> Step:
+        return Step(RweParams(), "again")
+
+
+def test_machine_fails_a_policy_that_never_finishes() -> None:
+    machine = Machine(Forever())
     step = machine.start(HOME)
     while step is not None:
-        step = machine.advance(report(ExitCondition.WRENCH_BREACH, 0.02, step.params.type))
+        step = machine.advance(report(ExitCondition.COMPLETED, 0.0, "rwe"))
     assert machine.exit is ExitCondition.FAILED and len(machine.steps) == run_module.MAX_STEPS
     assert "still going" in machine.report().detail
 
@@ -116,12 +128,11 @@ def test_ten_seeds_succeed_onboard_and_the_machine_agrees_with_the_predicate() -
     assert all(15.0 <= peak <= 25.0 for *_, peak in runs)  # Table 3: ~19 N pressing on the bottom
 
 
-def test_a_run_that_gives_up_is_failed_and_not_a_success(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_run_that_gives_up_is_failed_and_not_a_success() -> None:
     """The predicate's negative case: a jam the machine may not recover."""
-    monkeypatch.setattr(sleeve, "MAX_RECOVERIES", 0)
     sim = Simulation("sleeve_on_peg")
     sim.run_behavior(Ptwl(PtwlParams(rotation=[np.radians(3.0), 0.0, 0.0], duration=1.0)))
-    run = run_onboard("sleeve_on_peg", sim=sim)
+    run = run_onboard("sleeve_on_peg", sim=sim, overrides={"max_recoveries": 0})
     assert run.end == "failed" and not run.success and run.progress < 0.030
     assert [s.report.exit for s in run.steps] == [ExitCondition.WRENCH_BREACH]
 
@@ -146,6 +157,21 @@ def test_task_command_line_runs_lists_and_benches() -> None:
         and "| Success | 2 / 2 |" in bench.stdout
         and "PTWL (timeout) | 1.00" in bench.stdout
     )
+    bad = ptwl("run", "sleeve_on_peg", "--set", "max_recoveries=11")
+    assert bad.returncode == 2 and "max_recoveries" in bad.stderr and "less than or equal to 10" in bad.stderr
+    gave_up = ptwl(
+        "run",
+        "sleeve_on_peg",
+        "--seed",
+        "3",
+        "--set",
+        "insert_force_threshold=5",
+        "--set",
+        "max_recoveries=0",
+    )
+    assert (
+        gave_up.returncode == 1 and "machine ended failed" in gave_up.stdout
+    )  # breached at 5 N, no recovery
     unknown = ptwl("run", "no_such_task")
     assert unknown.returncode == 2 and "sleeve_on_peg" in unknown.stderr
 
@@ -207,6 +233,12 @@ def test_stop_aborts_a_running_state_machine(sleeve_server) -> None:  # type: ig
         ({"type": "state_machine", "task": "no_such_task"}, "task must be one of"),
         ({"type": "state_machine", "task": "sleeve_on_peg", "speed": 2}, "speed"),
         ({"type": "state_machine"}, "task"),
+        (
+            {"type": "state_machine", "task": "sleeve_on_peg", "overrides": {"max_recoveries": 11}},
+            "max_recoveries",
+        ),
+        ({"type": "state_machine", "task": "sleeve_on_peg", "overrides": {"max_slides": 1}}, "max_slides"),
+        ({"type": "state_machine", "task": "sleeve_on_peg", "overrides": {"max_recoveries": "2"}}, "integer"),
     ],
 )
 def test_a_bad_state_machine_request_is_refused_naming_the_field(
@@ -225,3 +257,17 @@ def test_a_state_machine_for_another_scene_is_refused(sleeve_server) -> None:  #
         client.reset_scene("sleeve_on_peg")
     assert reply.status_code == 422 and "needs scene sleeve_on_peg; surface is loaded" in reply.text
     assert "task" in reply.json()["errors"][0]["field"]
+
+
+def test_overrides_reach_the_machine_and_its_record(sleeve_server) -> None:  # type: ignore[no-untyped-def]
+    with RobotClient(sleeve_server.url) as client:
+        client.reset_scene("sleeve_on_peg")
+        tasks = {t["name"]: t for t in httpx.get(sleeve_server.url + "/api/tasks").json()}
+        assert tasks["sleeve_on_peg"]["settings"]["max_recoveries"]["maximum"] == 10  # what may be set
+        overrides = {"insert_force_threshold": 5.0, "max_recoveries": 0}
+        accepted = client.command("state_machine", task="sleeve_on_peg", overrides=overrides)
+        done = client.wait(accepted.id, timeout=20.0)
+    assert done.params["overrides"] == overrides
+    # At 5 N the insertion breaches on the bottom where the default 25 N ends `timeout` pressing.
+    assert done.steps[0].params["force_threshold"] == 5.0 and done.steps[0].exit == "wrench_breach"
+    assert done.exit == "completed" and "past the 50 mm mark" in done.detail

@@ -20,11 +20,13 @@ from robot_sim.sim import Simulation
 POLICIES: dict[str, type[Policy]] = {p.task: p for p in (SleeveOnPeg, QuickConnect, Lid)}
 
 
-def policy_for(task: str) -> Policy:
+def policy_for(task: str, overrides: dict[str, object] | None = None) -> Policy:
+    """A fresh policy for `task`, its settings overridden (checked: pydantic.ValidationError)."""
     try:
-        return POLICIES[task]()
+        policy = POLICIES[task]
     except KeyError:
         raise UnknownNameError("task", task, list(POLICIES)) from None
+    return policy(overrides)
 
 
 @dataclass(frozen=True)
@@ -56,9 +58,14 @@ class TaskRun:
         }
 
 
-def run_onboard(task: str, seed: int | None = None, sim: Simulation | None = None) -> TaskRun:
+def run_onboard(
+    task: str,
+    seed: int | None = None,
+    sim: Simulation | None = None,
+    overrides: dict[str, object] | None = None,
+) -> TaskRun:
     """Run `task`'s state machine on `sim` (default: a fresh one of the task's scene, `seed`)."""
-    machine = Machine(policy_for(task))
+    machine = Machine(policy_for(task, overrides))
     sim = sim or Simulation(task, seed)
     step: Step | None = machine.start(sim.state().port)
     while step is not None:

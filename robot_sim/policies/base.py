@@ -9,8 +9,12 @@ server's `state_machine` command), or on the ground, each report arriving down a
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
+from typing import ClassVar
+
+from pydantic import Field
 
 from robot_sim.behaviors import BehaviorParams, BehaviorReport, Pose
+from robot_sim.params import StrictModel
 
 
 @dataclass(frozen=True)
@@ -33,11 +37,23 @@ class Finish:
 Decision = Step | Finish
 
 
+class PolicySettings(StrictModel):
+    """What a `state_machine` command may override (its `overrides`); each policy adds its own."""
+
+    max_recoveries: int = Field(3, ge=0, le=10, description="recovery rounds before it gives up")
+
+
 class Policy(ABC):
     """One task's state machine; a fresh instance per run (it keeps the run's memory)."""
 
     task: str  # the task, and the scene it runs on
     summary: str  # its procedure in a line
+    settings_model: ClassVar[type[PolicySettings]] = PolicySettings
+    settings: PolicySettings
+
+    def __init__(self, overrides: dict[str, object] | None = None) -> None:
+        """`overrides` checked against `settings_model` (a 422 names the field on the API)."""
+        self.settings = self.settings_model.model_validate(overrides or {})
 
     @abstractmethod
     def first(self, port: Pose) -> Step:

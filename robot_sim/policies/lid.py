@@ -20,10 +20,11 @@ nominally 20 mm below home, the floor 35 mm), never by the predicate.
 import math
 
 import numpy as np
+from pydantic import Field
 
 from robot_sim.behaviors import BehaviorReport, Pose
 from robot_sim.params import PtwlParams, RweParams
-from robot_sim.policies.base import Decision, Finish, Policy, Step
+from robot_sim.policies.base import Decision, Finish, Policy, PolicySettings, Step
 from robot_sim.policies.travel import travel_down_tool_axis_m
 
 # `medium` named: a state machine must not inherit whatever gains the last operator left.
@@ -38,7 +39,10 @@ SLIDE_PRESS_M = 0.006  # [m] the attractor this far below the port while sliding
 LIP_M = 0.020  # [m] nominal travel from home to the lip's top
 INSIDE_M = LIP_M + 0.0035  # past this the lid is inside the lip (on the lip it rests at ~20 mm)
 ON_FLOOR_M = 0.033  # the floor is at 35 mm
-MAX_SLIDES = 3
+
+
+class LidSettings(PolicySettings):
+    max_recoveries: int = Field(3, ge=0, le=10, description="slides across the lip before it gives up")
 
 
 def slide_away_from(report: BehaviorReport) -> tuple[PtwlParams, str]:
@@ -67,7 +71,11 @@ class Lid(Policy):
         "down to contact; slide away from the contact the torque shows until the lid drops in; seat; relieve"
     )
 
-    def __init__(self) -> None:
+    settings_model = LidSettings
+    settings: LidSettings
+
+    def __init__(self, overrides: dict[str, object] | None = None) -> None:
+        super().__init__(overrides)
         self.home: Pose | None = None
         self.slides = 0
         self.seats = 0
@@ -99,8 +107,8 @@ class Lid(Policy):
                     READ, f"on the lip ({depth}, {report.exit}): hold the contact still to read where it is"
                 )
             self.read = False
-            if self.slides == MAX_SLIDES:
-                return Finish(False, f"still on the lip ({depth}) after {MAX_SLIDES} slides")
+            if self.slides == self.settings.max_recoveries:
+                return Finish(False, f"still on the lip ({depth}) after {self.slides} slides")
             self.slides += 1
             params, why = slide_away_from(report)
             return Step(params, f"on the lip ({depth}): {why}")

@@ -6,23 +6,32 @@
               -> the port went past SEATED_M: latched; relieve
               -> it stopped short (a jam at the mouth, or the collar not pushed through): recover
     recover   RWE (all axes), Dither torsional_push (turn while advancing), insert again;
-              after MAX_RECOVERIES: failed
+              after `max_recoveries` (3): failed
     relieve   RWE: the seating force goes, the latch holds; completed
 
 Depth is judged by how far the port has travelled down the tool axis since the start (the
 mouth is nominally 20 mm below home, the latched seat 40 mm), never by the predicate.
 """
 
+from pydantic import Field
+
 from robot_sim.behaviors import BehaviorReport, Pose
 from robot_sim.params import DitherParams, PtwlParams, RweParams
-from robot_sim.policies.base import Decision, Finish, Policy, Step
+from robot_sim.policies.base import Decision, Finish, Policy, PolicySettings, Step
 from robot_sim.policies.travel import travel_down_tool_axis_m
 
 # `medium` named: a state machine must not inherit whatever gains the last operator left.
 INSERT = PtwlParams(translation=[0.0, 0.0, 0.06], duration=6.0, force_threshold=35.0, preset="medium")
 RELIEVE = RweParams(duration=1.0)
 TWIST = DitherParams(preset="torsional_push")
-MAX_RECOVERIES = 3
+
+
+class QuickConnectSettings(PolicySettings):
+    insert_force_threshold: float = Field(
+        35.0, gt=0.0, le=500.0, description="[N] the insertion PTWL's; the latch needs 25-30 N"
+    )
+
+
 SEATED_M = 0.039  # [m] travel from home past which the nipple has pushed the collar through
 
 
@@ -31,8 +40,12 @@ class QuickConnect(Policy):
     summary = (
         "insert at 35 N (the latch needs 25-30 N); on a jam relieve, twist-dither, insert again; relieve"
     )
+    settings_model = QuickConnectSettings
+    settings: QuickConnectSettings
 
-    def __init__(self) -> None:
+    def __init__(self, overrides: dict[str, object] | None = None) -> None:
+        super().__init__(overrides)
+        self.insert = INSERT.model_copy(update={"force_threshold": self.settings.insert_force_threshold})
         self.home: Pose | None = None
         self.recoveries = 0
         self.pending: list[Step] = []
@@ -41,7 +54,10 @@ class QuickConnect(Policy):
 
     def first(self, port: Pose) -> Step:
         self.home = port
-        return Step(INSERT, "insert: PTWL 60 mm down the tool axis at up to 35 N, enough to push the latch")
+        threshold = self.insert.force_threshold
+        return Step(
+            self.insert, f"insert: PTWL 60 mm down the tool axis at up to {threshold:g} N, to push the latch"
+        )
 
     def next(self, report: BehaviorReport) -> Decision:
         assert self.home is not None
@@ -53,10 +69,10 @@ class QuickConnect(Policy):
         if travel >= SEATED_M:
             self.seated, self.seat_m = True, travel
             return Step(RELIEVE, f"seated {1000 * travel:.1f} mm down ({report.exit}): relieve the press")
-        if self.recoveries == MAX_RECOVERIES:
-            return Finish(False, f"still short at {1000 * travel:.1f} mm after {MAX_RECOVERIES} recoveries")
+        if self.recoveries == self.settings.max_recoveries:
+            return Finish(False, f"still short at {1000 * travel:.1f} mm after {self.recoveries} recoveries")
         self.recoveries += 1
         depth = f"{1000 * travel:.1f} mm down"
         why = f"short {self.recoveries}: {report.exit} at {report.peak_force:.1f} N, {depth}"
-        self.pending = [Step(TWIST, f"{why}; twist-dither to free it"), Step(INSERT, "insert again")]
+        self.pending = [Step(TWIST, f"{why}; twist-dither to free it"), Step(self.insert, "insert again")]
         return Step(RELIEVE, f"{why}; relieve the wrench first")

@@ -12,37 +12,51 @@ degrees the 0.089 mm fit jams 3-7 mm in, and every further PTWL breaches at once
               Dither torsional_push             turn +-0.1 rad about the sleeve axis at 1 Hz while
                                                 advancing 20 mm: the turning breaks the wedging
                                                 friction and the sleeve walks in and straightens
-              then insert again; after MAX_RECOVERIES jams in a row: failed
+              then insert again; after `max_recoveries` (4) jams in a row: failed
 
 It judges depth only by how far the port has travelled down the tool axis since the start (the
 sleeve's mouth is nominally 21 mm below home), never by the simulator's predicate.
 """
 
+from pydantic import Field
+
 from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
 from robot_sim.params import DitherParams, PtwlParams, RweParams
-from robot_sim.policies.base import Decision, Finish, Policy, Step
+from robot_sim.policies.base import Decision, Finish, Policy, PolicySettings, Step
 from robot_sim.policies.travel import travel_down_tool_axis_m
 
 # `medium` named: a state machine must not inherit whatever gains the last operator left.
 INSERT = PtwlParams(translation=[0.0, 0.0, 0.07], duration=7.0, force_threshold=25.0, preset="medium")
 RELIEVE = RweParams(duration=1.0)
 TWIST = DitherParams(preset="torsional_push")
-MAX_RECOVERIES = 4
+
+
+class SleeveSettings(PolicySettings):
+    max_recoveries: int = Field(4, ge=0, le=10, description="recovery rounds before it gives up")
+    insert_force_threshold: float = Field(
+        25.0, gt=0.0, le=500.0, description="[N] the insertion PTWL's; a jam breaches it"
+    )
+
+
 INSERTED_M = 0.050  # [m] travel down the tool axis from home: sleeve >= 30 mm over the peg
 
 
 class SleeveOnPeg(Policy):
     task = "sleeve_on_peg"
     summary = "insert (PTWL); on a jam relieve (RWE), twist-dither and insert again, up to 4 times"
+    settings_model = SleeveSettings
+    settings: SleeveSettings
 
-    def __init__(self) -> None:
+    def __init__(self, overrides: dict[str, object] | None = None) -> None:
+        super().__init__(overrides)
+        self.insert = INSERT.model_copy(update={"force_threshold": self.settings.insert_force_threshold})
         self.home: Pose | None = None
         self.recoveries = 0
         self.pending: list[Step] = []
 
     def first(self, port: Pose) -> Step:
         self.home = port
-        return Step(INSERT, "insert: PTWL 70 mm down the tool axis, 9 mm past the sleeve's bottom")
+        return Step(self.insert, "insert: PTWL 70 mm down the tool axis, 9 mm past the sleeve's bottom")
 
     def next(self, report: BehaviorReport) -> Decision:
         if self.pending:  # inside a recovery: its next behavior, whatever this one's exit
@@ -55,14 +69,14 @@ class SleeveOnPeg(Policy):
             return Finish(
                 True, f"breached {1000 * travel:.1f} mm down: past the {1000 * INSERTED_M:.0f} mm mark"
             )
-        if self.recoveries == MAX_RECOVERIES:
+        if self.recoveries == self.settings.max_recoveries:
             return Finish(
-                False, f"still jammed {1000 * travel:.1f} mm down after {MAX_RECOVERIES} recoveries"
+                False, f"still jammed {1000 * travel:.1f} mm down after {self.recoveries} recoveries"
             )
         self.recoveries += 1
         why = f"jam {self.recoveries}: breached {report.peak_force:.1f} N only {1000 * travel:.1f} mm down"
         self.pending = [
             Step(TWIST, f"{why}; twist-dither to break the wedging"),
-            Step(INSERT, "insert again"),
+            Step(self.insert, "insert again"),
         ]
         return Step(RELIEVE, f"{why}; relieve the wrench first")

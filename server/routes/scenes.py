@@ -20,7 +20,14 @@ async def scenes() -> list[SceneModel]:
 async def tasks() -> list[TaskInfoModel]:
     """Tasks whose state machine runs onboard as one command: `POST /api/commands` with
     `{"type": "state_machine", "task": NAME}` while the scene NAME is loaded."""
-    return [TaskInfoModel(name=name, summary=policy.summary) for name, policy in POLICIES.items()]
+    return [
+        TaskInfoModel(
+            name=name,
+            summary=policy.summary,
+            settings=policy.settings_model.model_json_schema()["properties"],
+        )
+        for name, policy in POLICIES.items()
+    ]
 
 
 @router.post("/scene", response_model=StopResult, responses=SIM_RESPONSES)
