@@ -92,8 +92,23 @@ class CommandRecord:
             detail=detail,
             sender=self.sender,
             goal=PoseModel(**self.goal.as_dict()) if self.goal else None,
-            steps=[MachineStepModel(**step.as_dict()) for step in self.steps],
+            steps=[_step_model(step) for step in self.steps],
         )
+
+
+def _step_model(step: StepRecord) -> MachineStepModel:
+    """A state machine's step for the API: what is not finite (a fault's) becomes null."""
+    fields = step.as_dict()
+    port = fields["final_port"]
+    return MachineStepModel(
+        **{
+            **fields,
+            "peak_force": _finite_or_none(fields["peak_force"]),
+            "peak_torque": _finite_or_none(fields["peak_torque"]),
+            "final_wrench": _finite(fields["final_wrench"]),
+            "final_port": port if _finite([*port["position"], *port["quaternion"]]) else None,
+        }
+    )
 
 
 Listener = Callable[[CommandRecord], None]

@@ -108,10 +108,10 @@ class MachineStepModel(BaseModel):
     exit: str = Field(description="how it ended")
     started_at: float = Field(description="[s] sim time")
     ended_at: float = Field(description="[s] sim time")
-    peak_force: float = Field(description="[N] max |f| while it ran")
-    peak_torque: float = Field(description="[N m] max |tau| while it ran")
-    final_wrench: list[float] = Field(description="[N, N m] environment on port at its exit")
-    final_port: PoseModel = Field(description="port pose at its exit")
+    peak_force: float | None = Field(description="[N] max |f| while it ran; null if not finite")
+    peak_torque: float | None = Field(description="[N m] max |tau| while it ran; null if not finite")
+    final_wrench: list[float] | None = Field(description="[N, N m] environment on port at its exit")
+    final_port: PoseModel | None = Field(description="port pose at its exit; null if not finite")
 
 
 class TaskProgressModel(BaseModel):

@@ -13,8 +13,9 @@ import pytest
 import websockets.sync.client
 
 from ptwl.launcher import ServiceProcess, free_port, running_server
-from robot_sim.behaviors import behavior_for
-from robot_sim.params import RweParams
+from robot_sim.behaviors import ExitCondition, behavior_for
+from robot_sim.params import RweParams, StateMachineParams
+from robot_sim.policies.run import StepRecord
 from robot_sim.sim import Simulation
 from server.client import RobotClient
 from server.commands import CommandBook
@@ -106,4 +107,20 @@ def test_non_finite_report_fields_become_null_with_a_reason(value: float) -> Non
     assert model is not None
     assert model.final_wrench is None and model.peak_force is None
     assert model.peak_torque == real.peak_torque and "non-finite" in model.detail
+    strict_json(model.model_dump_json())
+
+
+def test_a_state_machine_step_that_faulted_is_valid_json_too() -> None:
+    book = CommandBook(4, 10)
+    record = book.submit(StateMachineParams(task="sleeve_on_peg"))
+    book.start_next(lambda record: None)
+    real = Simulation("free_space").run_behavior(behavior_for(RweParams(duration=0.01)))
+    nan = dataclasses.replace(
+        real, final_wrench=(math.nan,) * 6, peak_force=math.inf, exit=ExitCondition.FAULT
+    )
+    book.step_done(StepRecord(0, RweParams(duration=0.01), "relieve", nan))
+    model = book.get(record.id)
+    assert model is not None and model.status == "running" and len(model.steps) == 1
+    step = model.steps[0]
+    assert step.final_wrench is None and step.peak_force is None and step.exit == "fault"
     strict_json(model.model_dump_json())
