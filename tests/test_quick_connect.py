@@ -49,7 +49,8 @@ def test_policy_recovers_a_short_insertion_and_gives_up_after_three() -> None:
         assert (
             isinstance(relieve, Step)
             and isinstance(relieve.params, RweParams)
-            and f"short {short}" in relieve.why
+            and relieve.why.startswith("short:")
+            and f"({short})" in relieve.why
         )
         twist = policy.next(at(0.022, ExitCondition.COMPLETED, "rwe"))
         assert isinstance(twist, Step) and isinstance(twist.params, DitherParams)
@@ -63,7 +64,7 @@ def test_policy_treats_a_stop_at_the_collar_as_short_whatever_the_exit() -> None
     policy = qc.QuickConnect()
     policy.first(HOME)
     decision = policy.next(at(qc.SEATED_M - 0.001, ExitCondition.TIMEOUT))
-    assert isinstance(decision, Step) and "short 1" in decision.why
+    assert isinstance(decision, Step) and decision.why.startswith("short:") and "(1)" in decision.why
 
 
 # -------------------------------------------------------------------------- the physics

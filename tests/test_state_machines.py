@@ -48,7 +48,12 @@ def test_sleeve_policy_recovers_a_jam_with_rwe_dither_ptwl_and_gives_up_after_fo
     for jam in range(1, policy.settings.max_recoveries + 1):
         relieve = policy.next(report(ExitCondition.WRENCH_BREACH, 0.026, peak=27.0))
         assert isinstance(relieve, Step) and isinstance(relieve.params, RweParams)
-        assert f"jam {jam}" in relieve.why and "27.0 N" in relieve.why and "26.0 mm" in relieve.why
+        assert (
+            relieve.why.startswith("jam:")
+            and f"({jam})" in relieve.why
+            and "27.0 N" in relieve.why
+            and "26.0 mm" in relieve.why
+        )
         twist = policy.next(report(ExitCondition.COMPLETED, 0.026, "rwe"))
         assert isinstance(twist, Step) and isinstance(twist.params, DitherParams)
         assert twist.params.mode == "torsional" and twist.params.direction == "push"

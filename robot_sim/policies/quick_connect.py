@@ -16,39 +16,30 @@ mouth is nominally 20 mm below home, the latched seat 40 mm), never by the predi
 from pydantic import Field
 
 from robot_sim.behaviors import BehaviorReport, Pose
-from robot_sim.params import DitherParams, PtwlParams, RweParams
-from robot_sim.policies.base import Decision, Finish, Policy, PolicySettings, Step
-from robot_sim.policies.travel import travel_down_tool_axis_m
+from robot_sim.params import PtwlParams
+from robot_sim.policies.base import Decision, Finish, Step
+from robot_sim.policies.insertion import RELIEVE, InsertionPolicy, InsertionSettings
 
-# `medium` named: a state machine must not inherit whatever gains the last operator left.
-INSERT = PtwlParams(translation=[0.0, 0.0, 0.06], duration=6.0, force_threshold=35.0, preset="medium")
-RELIEVE = RweParams(duration=1.0)
-TWIST = DitherParams(preset="torsional_push")
+SEATED_M = 0.039  # [m] travel from home past which the nipple has pushed the collar through
 
 
-class QuickConnectSettings(PolicySettings):
+class QuickConnectSettings(InsertionSettings):
     insert_force_threshold: float = Field(
         35.0, gt=0.0, le=500.0, description="[N] the insertion PTWL's; the latch needs 25-30 N"
     )
 
 
-SEATED_M = 0.039  # [m] travel from home past which the nipple has pushed the collar through
-
-
-class QuickConnect(Policy):
+class QuickConnect(InsertionPolicy):
     task = "quick_connect"
     summary = (
         "insert at 35 N (the latch needs 25-30 N); on a jam relieve, twist-dither, insert again; relieve"
     )
     settings_model = QuickConnectSettings
-    settings: QuickConnectSettings
+    # `medium` named: a state machine must not inherit whatever gains the last operator left.
+    INSERT = PtwlParams(translation=[0.0, 0.0, 0.06], duration=6.0, force_threshold=35.0, preset="medium")
 
     def __init__(self, overrides: dict[str, object] | None = None) -> None:
         super().__init__(overrides)
-        self.insert = INSERT.model_copy(update={"force_threshold": self.settings.insert_force_threshold})
-        self.home: Pose | None = None
-        self.recoveries = 0
-        self.pending: list[Step] = []
         self.seated = False
         self.seat_m = 0.0  # [m] travel when it seated
 
@@ -60,19 +51,17 @@ class QuickConnect(Policy):
         )
 
     def next(self, report: BehaviorReport) -> Decision:
-        assert self.home is not None
         if self.seated:
             return Finish(True, f"latched at {1000 * self.seat_m:.1f} mm and relieved ({report.exit})")
         if self.pending:
             return self.pending.pop(0)
-        travel = travel_down_tool_axis_m(self.home, report.final_port)
+        travel = self.travel_m(report.final_port)
         if travel >= SEATED_M:
             self.seated, self.seat_m = True, travel
             return Step(RELIEVE, f"seated {1000 * travel:.1f} mm down ({report.exit}): relieve the press")
-        if self.recoveries == self.settings.max_recoveries:
-            return Finish(False, f"still short at {1000 * travel:.1f} mm after {self.recoveries} recoveries")
-        self.recoveries += 1
-        depth = f"{1000 * travel:.1f} mm down"
-        why = f"short {self.recoveries}: {report.exit} at {report.peak_force:.1f} N, {depth}"
-        self.pending = [Step(TWIST, f"{why}; twist-dither to free it"), Step(self.insert, "insert again")]
-        return Step(RELIEVE, f"{why}; relieve the wrench first")
+        return self.recover(
+            f"short: {report.exit} at {report.peak_force:.1f} N, {1000 * travel:.1f} mm down", travel
+        )
+
+
+INSERT = QuickConnect.INSERT

@@ -21,38 +21,26 @@ sleeve's mouth is nominally 21 mm below home), never by the simulator's predicat
 from pydantic import Field
 
 from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
-from robot_sim.params import DitherParams, PtwlParams, RweParams
-from robot_sim.policies.base import Decision, Finish, Policy, PolicySettings, Step
-from robot_sim.policies.travel import travel_down_tool_axis_m
+from robot_sim.params import PtwlParams
+from robot_sim.policies.base import Decision, Finish, Step
+from robot_sim.policies.insertion import InsertionPolicy, InsertionSettings
 
-# `medium` named: a state machine must not inherit whatever gains the last operator left.
-INSERT = PtwlParams(translation=[0.0, 0.0, 0.07], duration=7.0, force_threshold=25.0, preset="medium")
-RELIEVE = RweParams(duration=1.0)
-TWIST = DitherParams(preset="torsional_push")
+INSERTED_M = 0.050  # [m] travel down the tool axis from home: sleeve >= 30 mm over the peg
 
 
-class SleeveSettings(PolicySettings):
+class SleeveSettings(InsertionSettings):
     max_recoveries: int = Field(4, ge=0, le=10, description="recovery rounds before it gives up")
     insert_force_threshold: float = Field(
         25.0, gt=0.0, le=500.0, description="[N] the insertion PTWL's; a jam breaches it"
     )
 
 
-INSERTED_M = 0.050  # [m] travel down the tool axis from home: sleeve >= 30 mm over the peg
-
-
-class SleeveOnPeg(Policy):
+class SleeveOnPeg(InsertionPolicy):
     task = "sleeve_on_peg"
     summary = "insert (PTWL); on a jam relieve (RWE), twist-dither and insert again, up to 4 times"
     settings_model = SleeveSettings
-    settings: SleeveSettings
-
-    def __init__(self, overrides: dict[str, object] | None = None) -> None:
-        super().__init__(overrides)
-        self.insert = INSERT.model_copy(update={"force_threshold": self.settings.insert_force_threshold})
-        self.home: Pose | None = None
-        self.recoveries = 0
-        self.pending: list[Step] = []
+    # `medium` named: a state machine must not inherit whatever gains the last operator left.
+    INSERT = PtwlParams(translation=[0.0, 0.0, 0.07], duration=7.0, force_threshold=25.0, preset="medium")
 
     def first(self, port: Pose) -> Step:
         self.home = port
@@ -61,22 +49,16 @@ class SleeveOnPeg(Policy):
     def next(self, report: BehaviorReport) -> Decision:
         if self.pending:  # inside a recovery: its next behavior, whatever this one's exit
             return self.pending.pop(0)
-        assert self.home is not None
-        travel = travel_down_tool_axis_m(self.home, report.final_port)
+        travel = self.travel_m(report.final_port)
         if report.exit is not ExitCondition.WRENCH_BREACH:
             return Finish(True, f"insertion ended {report.exit} with no breach, {1000 * travel:.1f} mm down")
         if travel >= INSERTED_M:
             return Finish(
                 True, f"breached {1000 * travel:.1f} mm down: past the {1000 * INSERTED_M:.0f} mm mark"
             )
-        if self.recoveries == self.settings.max_recoveries:
-            return Finish(
-                False, f"still jammed {1000 * travel:.1f} mm down after {self.recoveries} recoveries"
-            )
-        self.recoveries += 1
-        why = f"jam {self.recoveries}: breached {report.peak_force:.1f} N only {1000 * travel:.1f} mm down"
-        self.pending = [
-            Step(TWIST, f"{why}; twist-dither to break the wedging"),
-            Step(self.insert, "insert again"),
-        ]
-        return Step(RELIEVE, f"{why}; relieve the wrench first")
+        return self.recover(
+            f"jam: breached {report.peak_force:.1f} N only {1000 * travel:.1f} mm down", travel
+        )
+
+
+INSERT = SleeveOnPeg.INSERT

@@ -1,0 +1,50 @@
+"""What the insertion machines share (sleeve on peg, quick connect): one insertion PTWL whose
+force threshold is a setting, and the paper's recovery when it stops short, in one place:
+
+    RWE (all axes)              relieve the jam's wrench
+    Dither torsional_push       turn while advancing: breaks the wedging friction
+    the insertion again         after `max_recoveries` rounds: failed
+"""
+
+from pydantic import Field
+
+from robot_sim.behaviors import Pose
+from robot_sim.params import DitherParams, PtwlParams, RweParams
+from robot_sim.policies.base import Decision, Finish, Policy, PolicySettings, Step
+from robot_sim.policies.travel import travel_down_tool_axis_m
+
+RELIEVE = RweParams(duration=1.0)
+TWIST = DitherParams(preset="torsional_push")
+
+
+class InsertionSettings(PolicySettings):
+    insert_force_threshold: float = Field(25.0, gt=0.0, le=500.0, description="[N] the insertion PTWL's")
+
+
+class InsertionPolicy(Policy):
+    """An insertion PTWL (`INSERT`, its threshold from the settings) and the recovery rounds."""
+
+    INSERT: PtwlParams
+    settings: InsertionSettings
+
+    def __init__(self, overrides: dict[str, object] | None = None) -> None:
+        super().__init__(overrides)
+        self.insert = self.INSERT.model_copy(update={"force_threshold": self.settings.insert_force_threshold})
+        self.home: Pose | None = None
+        self.recoveries = 0
+        self.pending: list[Step] = []
+
+    def travel_m(self, port: Pose) -> float:
+        assert self.home is not None, "next() before first()"
+        return travel_down_tool_axis_m(self.home, port)
+
+    def recover(self, why: str, travel_m: float) -> Decision:
+        """Another recovery round (relieve, twist, insert), or give up after the last."""
+        if self.recoveries == self.settings.max_recoveries:
+            return Finish(
+                False, f"still short {1000 * travel_m:.1f} mm down after {self.recoveries} recoveries"
+            )
+        self.recoveries += 1
+        why = f"{why} ({self.recoveries})"
+        self.pending = [Step(TWIST, f"{why}; twist-dither to free it"), Step(self.insert, "insert again")]
+        return Step(RELIEVE, f"{why}; relieve the wrench first")
