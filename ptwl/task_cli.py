@@ -15,7 +15,7 @@ from concurrent.futures import ProcessPoolExecutor
 
 from tqdm import tqdm
 
-from robot_sim.policies import POLICIES, TaskRun, run_onboard
+from robot_sim.policies import POLICIES, TaskRun, policy_for, run_onboard
 from robot_sim.scenes import get_scene
 
 
@@ -36,7 +36,7 @@ def overrides(task: str, pairs: list[str]) -> dict[str, object]:
             out[name] = json.loads(value)
         except json.JSONDecodeError:
             raise ValueError(f"--set {pair}: the value must be JSON (a number, true or false)") from None
-    POLICIES[task].settings_model.model_validate(out)  # a ValidationError names the setting
+    policy_for(task, out)  # checked by the policy's own settings: a ValidationError names the setting
     return out
 
 

@@ -67,10 +67,7 @@ class CommandRecord:
         """The API's view. A fault can leave NaN in the report: such fields become null, with
         the reason in `detail`, so the record stays valid JSON for every reader."""
         r = self.report
-        final_wrench = _finite(r.final_wrench) if r else None
-        final_port = PoseModel(**r.final_port.as_dict()) if r else None
-        if final_port is not None and _finite([*final_port.position, *final_port.quaternion]) is None:
-            final_port = None
+        final_wrench, final_port = _final_figures(r) if r else (None, None)
         detail = self.detail
         if r is not None and (final_wrench is None or final_port is None):
             detail = (detail + "; " if detail else "") + "non-finite final wrench or pose reported as null"
@@ -96,17 +93,24 @@ class CommandRecord:
         )
 
 
+def _final_figures(report: BehaviorReport) -> tuple[list[float] | None, PoseModel | None]:
+    """(final wrench, final port) for the API; None where not finite (a fault's NaN)."""
+    pose = report.final_port
+    finite_pose = _finite([*pose.position, *pose.quaternion]) is not None
+    return _finite(report.final_wrench), PoseModel(**pose.as_dict()) if finite_pose else None
+
+
 def _step_model(step: StepRecord) -> MachineStepModel:
     """A state machine's step for the API: what is not finite (a fault's) becomes null."""
-    fields = step.as_dict()
-    port = fields["final_port"]
+    r = step.report
+    final_wrench, final_port = _final_figures(r)
     return MachineStepModel(
         **{
-            **fields,
-            "peak_force": _finite_or_none(fields["peak_force"]),
-            "peak_torque": _finite_or_none(fields["peak_torque"]),
-            "final_wrench": _finite(fields["final_wrench"]),
-            "final_port": port if _finite([*port["position"], *port["quaternion"]]) else None,
+            **step.as_dict(),
+            "peak_force": _finite_or_none(r.peak_force),
+            "peak_torque": _finite_or_none(r.peak_torque),
+            "final_wrench": final_wrench,
+            "final_port": final_port,
         }
     )
 

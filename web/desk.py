@@ -18,8 +18,6 @@ YELLOW = (250, 204, 21)
 SendFn = Callable[["Desk", str, dict[str, Any]], None]
 CheckFn = Callable[[str, dict[str, Any]], Check]
 
-BEHAVIORS = ("ptwl", "rwe", "dither", "state_machine")  # what a desk sends, each from its own tab
-
 
 class Desk:
     def __init__(
@@ -52,13 +50,11 @@ class Desk:
         self.gizmo = scene.add_transform_controls("/gizmo", scale=0.08, visible=False)
         panel = self.panel
         panel.take_control.on_click(lambda _: seat.take(client.client_id))
-        panel.send_ptwl.on_click(lambda _: send(self, "ptwl", self.params("ptwl")))
-        panel.send_rwe.on_click(lambda _: send(self, "rwe", self.params("rwe")))
-        panel.send_dither.on_click(lambda _: send(self, "dither", self.params("dither")))
-        panel.send_task.on_click(lambda _: send(self, "state_machine", self.params("state_machine")))
+        for behavior, button in panel.sends.items():
+            button.on_click(self._sender(send, behavior))
         for field in (panel.translation, panel.rotation, panel.frame, panel.show_gizmo):
             field.on_update(lambda _: self.fields_changed())
-        for behavior in BEHAVIORS:
+        for behavior in panel.sends:
             for field in panel.fields(behavior):
                 field.on_update(lambda _, b=behavior: self.recheck(b))
         self.gizmo.on_update(lambda _: self._gizmo_moved())
@@ -73,7 +69,7 @@ class Desk:
         clear_key.on_trigger(lambda _: self.clear_contemplated())
         self._check = check
         self.seat_changed()
-        for behavior in BEHAVIORS:
+        for behavior in self.panel.sends:
             self.recheck(behavior)
 
     @property
@@ -93,11 +89,11 @@ class Desk:
         holder = self._seat.holder
         self.panel.show_control(holder == self.client_id, operator_name(holder))
 
+    def _sender(self, send: SendFn, behavior: str) -> Callable[[Any], None]:
+        return lambda _: send(self, behavior, self.params(behavior))
+
     def params(self, behavior: str) -> dict[str, Any]:
-        panel = self.panel
-        makers = {"ptwl": panel.ptwl_params, "rwe": panel.rwe_params, "dither": panel.dither_params}
-        makers["state_machine"] = panel.task_params
-        return makers[behavior]()
+        return self.panel.params(behavior)
 
     def recheck(self, behavior: str) -> None:
         """Check the request as typed by the robot's own rules; say what they say, at once."""

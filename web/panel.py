@@ -34,7 +34,6 @@ class Panel:
         self.tasks = tasks
         self.stiffness_presets = stiffness_presets
         self._mine = False
-        self._valid = {"ptwl": True, "rwe": True, "dither": True, "state_machine": True}
         self.control = gui.add_html(_control_html(False, None), order=FORM_ORDER)
         self.take_control = gui.add_button(
             "Take control", color="teal", hint="become the one operator who can send", order=FORM_ORDER + 0.1
@@ -115,10 +114,34 @@ class Panel:
         )
         self.stiffness_info = gui.add_html(self._stiffness_html(), order=FORM_ORDER + 0.4)
         self.stiffness.on_update(lambda _: self._show_stiffness())
+        # Per request type, in one place: its Send button, its check line, how it is made.
+        self.sends = {
+            "ptwl": self.send_ptwl,
+            "rwe": self.send_rwe,
+            "dither": self.send_dither,
+            "state_machine": self.send_task,
+        }
+        self._checks = {
+            "ptwl": self.ptwl_check,
+            "rwe": self.rwe_check,
+            "dither": self.dither_check,
+            "state_machine": self.task_check,
+        }
+        self._makers = {
+            "ptwl": self.ptwl_params,
+            "rwe": self.rwe_params,
+            "dither": self.dither_params,
+            "state_machine": self.task_params,
+        }
+        self._valid = dict.fromkeys(self.sends, True)
 
     @property
     def send_buttons(self) -> tuple[Any, ...]:
-        return (self.send_ptwl, self.send_rwe, self.send_dither, self.send_task)
+        return tuple(self.sends.values())
+
+    def params(self, behavior: str) -> dict[str, Any]:
+        """The request `behavior`'s tab makes from its fields."""
+        return self._makers[behavior]()
 
     def fields(self, behavior: str) -> list[Any]:
         """The inputs whose values make up a behavior's request."""
@@ -163,18 +186,14 @@ class Panel:
     def show_check(self, behavior: str, errors: str, warnings: list[str], watchdog_s: float | None) -> None:
         """What the robot's own rules say of the request as typed; Send is off while it is invalid."""
         self._valid[behavior] = not errors
-        checks = {"ptwl": self.ptwl_check, "rwe": self.rwe_check, "dither": self.dither_check}
-        checks["state_machine"] = self.task_check
-        checks[behavior].content = _check_html(behavior, errors, warnings)
+        self._checks[behavior].content = _check_html(behavior, errors, warnings)
         if behavior == "ptwl" and watchdog_s is not None and self.watchdog_auto.value:
             _set(self.watchdog, round(watchdog_s, 3))
         self.watchdog.disabled = bool(self.watchdog_auto.value)
         self._refresh_buttons()
 
     def _refresh_buttons(self) -> None:
-        for behavior, button in zip(
-            ("ptwl", "rwe", "dither", "state_machine"), self.send_buttons, strict=True
-        ):
+        for behavior, button in self.sends.items():
             button.disabled = not (self._mine and self._valid[behavior])
 
     def _stiffness_html(self) -> str:
