@@ -11,6 +11,7 @@ import httpx
 import pytest
 
 from ptwl.launcher import ServiceProcess, running_proxy, running_server
+from robot_sim.scenes import SCENES
 
 ROOT = Path(__file__).resolve().parent.parent
 MAX_EXAMPLES = 12
@@ -64,13 +65,7 @@ def test_the_document_says_what_main_left_out(stack: tuple[ServiceProcess, Servi
     assert schemas["ValidationErrorModel"]["properties"]["detail"]["type"] == "string"
     for behavior in ("PtwlParams", "RweParams", "DitherParams", "StateMachineParams"):
         assert "type" in schemas[behavior]["required"], behavior
-    assert schemas["SceneRequest"]["properties"]["name"]["enum"] == [
-        "free_space",
-        "surface",
-        "sleeve_on_peg",
-        "quick_connect",
-        "lid",
-    ]
+    assert schemas["SceneRequest"]["properties"]["name"]["enum"] == list(SCENES)
     assert schemas["PtwlParams"]["properties"]["force_threshold"]["maximum"] == 500.0
     post = document["paths"]["/api/commands"]["post"]["responses"]
     assert {"202", "400", "401", "403", "413", "422", "429"} <= set(post)

@@ -10,6 +10,7 @@ import httpx
 import numpy as np
 import pytest
 
+from robot_sim.scenes import SCENES
 from server.client import RobotClient, RobotError
 
 GAP_TO_PLATE = 0.0466 - 0.008  # [m] as in tests/test_ptwl.py
@@ -129,13 +130,7 @@ def test_scene_reset_with_seed_and_task(robot: RobotClient) -> None:
     assert task.scene == "sleeve_on_peg" and not task.success
     assert task.progress == pytest.approx(-0.0206, abs=0.003)
     assert robot.state().scene == "sleeve_on_peg"
-    assert {s.name for s in robot.scenes()} == {
-        "free_space",
-        "surface",
-        "sleeve_on_peg",
-        "quick_connect",
-        "lid",
-    }
+    assert [s.name for s in robot.scenes()] == list(SCENES)
 
 
 def test_presets_by_name(robot: RobotClient) -> None:

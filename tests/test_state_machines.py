@@ -16,7 +16,7 @@ import pytest
 from ptwl.launcher import running_server
 from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose, Ptwl
 from robot_sim.params import DitherParams, PtwlParams, RweParams
-from robot_sim.policies import Finish, Machine, Policy, Step, run_onboard
+from robot_sim.policies import POLICIES, Finish, Machine, Policy, Step, run_onboard
 from robot_sim.policies import run as run_module
 from robot_sim.policies import sleeve_on_peg as sleeve
 from robot_sim.policies.sleeve_on_peg import SleeveOnPeg
@@ -196,7 +196,7 @@ def test_state_machine_command_runs_onboard_announces_each_step_and_takes_overri
     with RobotClient(sleeve_server.url) as client:
         client.reset_scene("sleeve_on_peg")
         tasks = {t["name"]: t for t in httpx.get(sleeve_server.url + "/api/tasks").json()}
-        assert list(tasks) == ["sleeve_on_peg", "quick_connect", "lid"]
+        assert list(tasks) == list(POLICIES)
         assert tasks["sleeve_on_peg"]["settings"]["max_recoveries"]["maximum"] == 10  # what may be set
 
         def listen() -> None:

@@ -6,6 +6,8 @@ force threshold is a setting, and the paper's recovery when it stops short, in o
     the insertion again         after `max_recoveries` rounds: failed
 """
 
+from typing import ClassVar
+
 from pydantic import Field
 
 from robot_sim.behaviors import Pose
@@ -25,6 +27,7 @@ class InsertionPolicy(Policy):
     """An insertion PTWL (`INSERT`, its threshold from the settings) and the recovery rounds."""
 
     INSERT: PtwlParams
+    settings_model: ClassVar[type[PolicySettings]] = InsertionSettings
     settings: InsertionSettings
 
     def __init__(self, overrides: dict[str, object] | None = None) -> None:

@@ -1,0 +1,58 @@
+"""What a task scene is: fixtures and tool (MJCF), where the arm starts, a success predicate,
+optional fixture logic, and how a seed misaligns the fixture."""
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import mujoco
+import numpy as np
+
+if TYPE_CHECKING:
+    from robot_sim.sim import Simulation
+
+# Tool pointing straight down with the wrist well away from singularities: pitch joints
+# 2, 3 and 5 sum to pi/2.
+HOME_TOOL_DOWN = (0.0, 0.3, 0.2, 0.0, math.pi / 2 - 0.5, 0.0)
+
+
+@dataclass(frozen=True)
+class TaskProgress:
+    """A scene's success predicate, evaluated now."""
+
+    predicate: str  # what success means, in words
+    success: bool
+    progress: float  # the measured quantity, in `unit`
+    target: float
+    unit: str
+
+
+@dataclass(frozen=True)
+class Scene:
+    name: str
+    description: str
+    scene_file: str
+    tool_file: str
+    home_qpos: tuple[float, ...]
+    fixture_body: str | None  # moved by a seed (see fixture_offset)
+    jitter_m: float
+    predicate: "Callable[[Simulation], TaskProgress]"
+    # A fixture's own logic, bound to the loaded model and run every control tick: what MJCF
+    # cannot say (a latch that catches and stays caught).
+    mechanism: Callable[[mujoco.MjModel], Callable[[mujoco.MjData], None]] | None = None
+    # (min, max) [m]: a seed puts the fixture this far off its place in a random direction
+    # (when the task needs a real misalignment); otherwise anywhere within +-jitter_m in x, y.
+    offset_range_m: tuple[float, float] | None = None
+    # [m] (x, y): a seed's offset is drawn within +-these instead (a misalignment along one
+    # axis only); overrides jitter_m.
+    offset_box_m: tuple[float, float] | None = None
+
+
+def fixture_offset(scene: Scene, rng: np.random.Generator) -> np.ndarray:
+    """[m] (dx, dy) a seed moves the scene's fixture by: the one place the seeded layouts live."""
+    if scene.offset_range_m is not None:
+        distance, heading = rng.uniform(*scene.offset_range_m), rng.uniform(0.0, 2.0 * math.pi)
+        return distance * np.array([math.cos(heading), math.sin(heading)])
+    half = scene.offset_box_m or (scene.jitter_m, scene.jitter_m)
+    return rng.uniform(-np.array(half), np.array(half))
