@@ -17,6 +17,8 @@ PHYSICS_TIMESTEP_S = 0.001
 # chatter under the stiff joint servos; this one settles a 6 N press in ~15 ms.
 CONTACT_SOLREF = (10 * PHYSICS_TIMESTEP_S, 1.0)
 
+MUJOCO_DEFAULT_SOLREF = (0.02, 1.0)
+
 # Attached specs get a name prefix (MuJoCo needs one to save models); look names up through
 # these: the port site is ARM_PREFIX + TOOL_PREFIX + "port".
 ARM_PREFIX = "arm/"
@@ -41,5 +43,9 @@ def build_model(scene_file: str, tool_file: str) -> mujoco.MjModel:
     opt.jacobian = mujoco.mjtJacobian.mjJAC_DENSE
     opt.noslip_iterations = 0
     for geom in spec.geoms:
-        geom.solref = list(CONTACT_SOLREF)
+        # A geom that sets its own solref keeps it: MuJoCo scales contact stiffness by the
+        # effective mass, so a light part (a detent ball) needs a shorter time constant to
+        # stay out of what it touches.
+        if tuple(geom.solref) == MUJOCO_DEFAULT_SOLREF:
+            geom.solref = list(CONTACT_SOLREF)
     return spec.compile()

@@ -41,14 +41,19 @@ class Payload:
     @staticmethod
     def from_model(model: mujoco.MjModel, layout: ArmLayout) -> "Payload":
         body = layout.tool_body
-        if model.body_subtreemass[body] != model.body_mass[body]:
-            raise ValueError("the tool must be one welded body (no child bodies)")
+        # The tool's whole subtree (a detent ball on its own joint counts), at the model's
+        # reference pose: a calibration weighs the tool once, as it hangs.
+        data = mujoco.MjData(model)
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        R_world_body = data.xmat[body].reshape(3, 3)
+        com_body = R_world_body.T @ (data.subtree_com[body] - data.xpos[body])
         # Sensor and port sites are on the tool body; express both in the sensor frame.
         R_body_ft = rotation_matrix(model.site_quat[layout.ft_site])
         p_body_ft = model.site_pos[layout.ft_site]
-        com_ft = R_body_ft.T @ (model.body_ipos[body] - p_body_ft)
+        com_ft = R_body_ft.T @ (com_body - p_body_ft)
         port_ft = R_body_ft.T @ (model.site_pos[layout.port_site] - p_body_ft)
-        return Payload(float(model.body_mass[body]), com_ft, port_ft)
+        return Payload(float(model.body_subtreemass[body]), com_ft, port_ft)
 
     def compensation_matrix(self) -> np.ndarray:
         """(6, 9) map from [f_s, tau_s, g_ft] to the environment's wrench at the port, sensor axes."""

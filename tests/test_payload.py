@@ -16,7 +16,9 @@ WRIST_POSES = {
 }
 
 
-@pytest.mark.parametrize("scene", ["free_space", "sleeve_on_peg", "quick_connect", "lid", "plug"])
+@pytest.mark.parametrize(
+    "scene", ["free_space", "sleeve_on_peg", "quick_connect", "lid", "plug", "socket_wrench"]
+)
 @pytest.mark.parametrize("pose", list(WRIST_POSES))
 def test_compensated_wrench_at_rest_is_zero(scene: str, pose: str) -> None:
     sim = Simulation(scene, qpos=WRIST_POSES[pose])

@@ -16,9 +16,10 @@ from robot_sim.policies.plug import Plug
 from robot_sim.policies.quick_connect import QuickConnect
 from robot_sim.policies.run import Machine, StepRecord, trial_metrics
 from robot_sim.policies.sleeve_on_peg import SleeveOnPeg
+from robot_sim.policies.socket_wrench import SocketWrench
 from robot_sim.sim import Simulation
 
-POLICIES: dict[str, type[Policy]] = {p.task: p for p in (SleeveOnPeg, QuickConnect, Lid, Plug)}
+POLICIES: dict[str, type[Policy]] = {p.task: p for p in (SleeveOnPeg, QuickConnect, Lid, Plug, SocketWrench)}
 
 
 def policy_for(task: str, overrides: dict[str, object] | None = None) -> Policy:

@@ -6,13 +6,22 @@ gives the nominal layout.
 """
 
 from robot_sim.errors import UnknownNameError
-from robot_sim.scenes import free_space, lid, plug, quick_connect, sleeve_on_peg, surface
+from robot_sim.scenes import (
+    free_space,
+    lid,
+    plug,
+    quick_connect,
+    sleeve_on_peg,
+    socket_wrench,
+    surface,
+)
 from robot_sim.scenes.base import HOME_TOOL_DOWN, Scene, TaskProgress, fixture_offset
 from robot_sim.scenes.quick_connect import LATCH_STROKE_M
 from robot_sim.scenes.sleeve_on_peg import sleeve_insertion_depth
 
 SCENES: dict[str, Scene] = {
-    m.SCENE.name: m.SCENE for m in (free_space, surface, sleeve_on_peg, quick_connect, lid, plug)
+    m.SCENE.name: m.SCENE
+    for m in (free_space, surface, sleeve_on_peg, quick_connect, lid, plug, socket_wrench)
 }
 
 
