@@ -26,7 +26,7 @@ from robot_sim.gains import Gains
 from robot_sim.model import PHYSICS_TIMESTEP_S, build_model
 from robot_sim.payload import Payload
 from robot_sim.presets import default_presets
-from robot_sim.scenes import Scene, TaskProgress, fixture_offset, get_scene
+from robot_sim.scenes import Scene, TaskProgress, apply_seed, get_scene
 
 SETTLE_S = 0.3  # [s] physics in position hold at every (re)load, before compliance starts
 
@@ -121,8 +121,7 @@ class Simulation:
         """Load `scene` fresh, arm at home (or `qpos` [rad]), compliance on, attractor on the port."""
         spec: Scene = get_scene(scene)
         model = build_model(spec.scene_file, spec.tool_file)
-        if seed is not None and spec.fixture_body is not None:
-            model.body(spec.fixture_body).pos[0:2] += fixture_offset(spec, np.random.default_rng(seed))
+        apply_seed(spec, model, seed)
         data = mujoco.MjData(model)
         layout = ArmLayout.from_model(model)
         start = spec.home_qpos if qpos is None else qpos

@@ -11,6 +11,7 @@ from typing import Any
 from robot_sim.behaviors import behavior_for
 from robot_sim.errors import UnknownNameError
 from robot_sim.policies.base import Decision, Finish, Policy, Step
+from robot_sim.policies.door import Door
 from robot_sim.policies.lid import Lid
 from robot_sim.policies.plug import Plug
 from robot_sim.policies.quick_connect import QuickConnect
@@ -19,7 +20,9 @@ from robot_sim.policies.sleeve_on_peg import SleeveOnPeg
 from robot_sim.policies.socket_wrench import SocketWrench
 from robot_sim.sim import Simulation
 
-POLICIES: dict[str, type[Policy]] = {p.task: p for p in (SleeveOnPeg, QuickConnect, Lid, Plug, SocketWrench)}
+POLICIES: dict[str, type[Policy]] = {
+    p.task: p for p in (SleeveOnPeg, QuickConnect, Lid, Plug, SocketWrench, Door)
+}
 
 
 def policy_for(task: str, overrides: dict[str, object] | None = None) -> Policy:

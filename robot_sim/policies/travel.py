@@ -1,5 +1,6 @@
-"""What an onboard machine can tell of depth without a model of the workpiece: how far the port
-has gone along the tool's z axis (as it pointed at the start) since the start."""
+"""What an onboard machine can tell from the port's pose alone, without a model of the workpiece:
+how far the port has gone down the tool's axis, how far that axis has swung, how far the tool
+has turned about it, each since the start."""
 
 import numpy as np
 
@@ -10,3 +11,17 @@ from robot_sim.pose_math import rotation_matrix
 def travel_down_tool_axis_m(start: Pose, now: Pose) -> float:
     axis = rotation_matrix(np.asarray(start.quaternion))[:, 2]
     return float(axis @ (np.asarray(now.position) - np.asarray(start.position)))
+
+
+def tool_axis_tilt_rad(start: Pose, now: Pose) -> float:
+    """How far the tool's z axis has swung from where it pointed at the start (a hinge's angle,
+    when the tool holds what turns on it)."""
+    z_start = rotation_matrix(np.asarray(start.quaternion))[:, 2]
+    z_now = rotation_matrix(np.asarray(now.quaternion))[:, 2]
+    return float(np.arccos(np.clip(z_start @ z_now, -1.0, 1.0)))
+
+
+def twist_about_tool_axis_rad(start: Pose, now: Pose) -> float:
+    """The turn about the tool's own z axis since the start (a knob's turn), for small tilts."""
+    R_rel = rotation_matrix(np.asarray(start.quaternion)).T @ rotation_matrix(np.asarray(now.quaternion))
+    return float(np.arctan2(R_rel[1, 0], R_rel[0, 0]))

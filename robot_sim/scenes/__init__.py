@@ -7,6 +7,7 @@ gives the nominal layout.
 
 from robot_sim.errors import UnknownNameError
 from robot_sim.scenes import (
+    door,
     free_space,
     lid,
     plug,
@@ -15,13 +16,13 @@ from robot_sim.scenes import (
     socket_wrench,
     surface,
 )
-from robot_sim.scenes.base import HOME_TOOL_DOWN, Scene, TaskProgress, fixture_offset
+from robot_sim.scenes.base import HOME_TOOL_DOWN, Scene, TaskProgress, apply_seed, fixture_offset
 from robot_sim.scenes.quick_connect import LATCH_STROKE_M
 from robot_sim.scenes.sleeve_on_peg import sleeve_insertion_depth
 
 SCENES: dict[str, Scene] = {
     m.SCENE.name: m.SCENE
-    for m in (free_space, surface, sleeve_on_peg, quick_connect, lid, plug, socket_wrench)
+    for m in (free_space, surface, sleeve_on_peg, quick_connect, lid, plug, socket_wrench, door)
 }
 
 
@@ -38,6 +39,7 @@ __all__ = [
     "SCENES",
     "Scene",
     "TaskProgress",
+    "apply_seed",
     "fixture_offset",
     "get_scene",
     "sleeve_insertion_depth",

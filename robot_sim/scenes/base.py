@@ -47,6 +47,20 @@ class Scene:
     # [m] (x, y): a seed's offset is drawn within +-these instead (a misalignment along one
     # axis only); overrides jitter_m.
     offset_box_m: tuple[float, float] | None = None
+    # A seed's layout when moving one body is not enough (the door's hinge about its knob);
+    # replaces the fixture offset.
+    randomise: Callable[[mujoco.MjModel, np.random.Generator], None] | None = None
+
+
+def apply_seed(scene: Scene, model: mujoco.MjModel, seed: int | None) -> None:
+    """Lay out `model` (freshly built, not yet simulated) as `seed` says; None: nominal."""
+    if seed is None:
+        return
+    rng = np.random.default_rng(seed)
+    if scene.randomise is not None:
+        scene.randomise(model, rng)
+    elif scene.fixture_body is not None:
+        model.body(scene.fixture_body).pos[0:2] += fixture_offset(scene, rng)
 
 
 def fixture_offset(scene: Scene, rng: np.random.Generator) -> np.ndarray:
