@@ -11,6 +11,7 @@ from typing import Any
 from robot_sim.behaviors import behavior_for
 from robot_sim.errors import UnknownNameError
 from robot_sim.policies.base import Decision, Finish, Policy, Step
+from robot_sim.policies.berthing import Berthing
 from robot_sim.policies.door import Door
 from robot_sim.policies.lid import Lid
 from robot_sim.policies.plug import Plug
@@ -21,7 +22,7 @@ from robot_sim.policies.socket_wrench import SocketWrench
 from robot_sim.sim import Simulation
 
 POLICIES: dict[str, type[Policy]] = {
-    p.task: p for p in (SleeveOnPeg, QuickConnect, Lid, Plug, SocketWrench, Door)
+    p.task: p for p in (SleeveOnPeg, QuickConnect, Lid, Plug, SocketWrench, Door, Berthing)
 }
 
 

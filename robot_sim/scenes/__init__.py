@@ -7,6 +7,7 @@ gives the nominal layout.
 
 from robot_sim.errors import UnknownNameError
 from robot_sim.scenes import (
+    berthing,
     door,
     free_space,
     lid,
@@ -22,7 +23,17 @@ from robot_sim.scenes.sleeve_on_peg import sleeve_insertion_depth
 
 SCENES: dict[str, Scene] = {
     m.SCENE.name: m.SCENE
-    for m in (free_space, surface, sleeve_on_peg, quick_connect, lid, plug, socket_wrench, door)
+    for m in (
+        free_space,
+        surface,
+        sleeve_on_peg,
+        quick_connect,
+        lid,
+        plug,
+        socket_wrench,
+        door,
+        berthing,
+    )
 }
 
 

@@ -1,6 +1,8 @@
 """A gripper's grasp as MuJoCo models it: a weld between the tool and what it holds, switched on
 with the two bodies' relative pose as they are at that moment (so closing never jerks)."""
 
+from collections.abc import Callable
+
 import mujoco
 import numpy as np
 
@@ -21,3 +23,19 @@ def grasp(model: mujoco.MjModel, data: mujoco.MjData, weld: int) -> None:
 
 def release(data: mujoco.MjData, weld: int) -> None:
     data.eq_active[weld] = 0
+
+
+def held_from_start(weld_name: str) -> Callable[[mujoco.MjModel], Callable[[mujoco.MjData], None]]:
+    """A scene mechanism: the gripper holds `weld_name`'s body from the first control tick on
+    (a task that begins at the grasp)."""
+
+    def bind(model: mujoco.MjModel) -> Callable[[mujoco.MjData], None]:
+        weld = model.equality(weld_name).id
+
+        def tick(data: mujoco.MjData) -> None:
+            if not data.eq_active[weld]:
+                grasp(model, data, weld)
+
+        return tick
+
+    return bind
