@@ -49,6 +49,7 @@ def run_line(run: TaskRun) -> str:
         f"  sim time {run.sim_time_s:.2f} s, run time {m['run_time_s']:.2f} s, "
         f"max force {m['max_force_n']:.1f} N, max torque {m['max_torque_nm']:.2f} N m, "
         f"{m['behaviors']} behaviors: RWE {m['rwe']}, Dither {m['dither']}, PTWL ({ptwl})"
+        + (f"; gripper {m['gripper']}" if m["gripper"] else "")
     )
 
 
@@ -60,7 +61,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(run_line(run))
         for step in run.steps:
             r = step.report
-            print(f"  {step.index:2d} {r.behavior:6s} -> {r.exit.value:13s} {step.why}")
+            print(f"  {step.index:2d} {r.behavior:7s} -> {r.exit.value:13s} {step.why}")
     return 0 if run.success else 1
 
 
@@ -86,6 +87,7 @@ def bench_table(task: str, runs: list[TaskRun]) -> str:
         ("PTWL (goal reached)", f"{mean_ptwl('goal_reached'):.2f}"),
         ("PTWL (wrench breach)", f"{mean_ptwl('wrench_breach'):.2f}"),
         ("Dither", f"{mean('dither'):.2f}"),
+        ("Gripper (not a behavior)", f"{mean('gripper'):.2f}"),
     ]
     lines = [f"| {task} | mean over trials |", "|---|---|"]
     return "\n".join(lines + [f"| {name} | {value} |" for name, value in rows])

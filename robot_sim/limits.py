@@ -30,6 +30,7 @@ import math
 MAX_DURATION_S = 600.0
 MAX_TRANSLATION_M = 1.0
 MAX_ROTATION_RAD = math.pi
+MAX_GRIPPER_S = 5.0  # [s] a gripper command's duration
 MAX_DITHER_AMPLITUDE = 0.35  # [rad] torsional tilt; translational radius has its own cap below
 MAX_DITHER_RADIUS_M = 0.02
 MAX_DITHER_FREQUENCY_HZ = 10.0

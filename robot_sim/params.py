@@ -291,6 +291,19 @@ def _resolve_gains(
     return None
 
 
+class GripperParams(StrictModel):
+    """Close or open the gripper (paper 2.3.3-2.3.4): not a compliant behavior, but a step of the
+    tool tasks; the attractor holds still while the jaws move."""
+
+    type: Literal["gripper"] = Field("gripper", description="command: gripper")
+    action: Literal["close", "open"] = Field(
+        description="close: grasp what is between the jaws; open: let go"
+    )
+    duration: Annotated[float, _range(0.0, limits.MAX_GRIPPER_S, "s", lo_open=True)] = Field(
+        0.5, description="[s] the jaws' travel and settling time, (0, 5]"
+    )
+
+
 class StateMachineParams(StrictModel):
     """A task's onboard state machine (robot_sim/policies), run as one command."""
 

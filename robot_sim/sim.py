@@ -20,6 +20,7 @@ import numpy as np
 
 from robot_sim.arm import ArmLayout
 from robot_sim.behaviors.base import Behavior, BehaviorReport, ExitCondition, Pose
+from robot_sim.behaviors.gripper import Gripper
 from robot_sim.controller import FT_CUTOFF_HZ, AdmittanceController, Limit
 from robot_sim.errors import RobotSimError, SimulationFault
 from robot_sim.gains import Gains
@@ -27,6 +28,7 @@ from robot_sim.model import PHYSICS_TIMESTEP_S, build_model
 from robot_sim.payload import Payload
 from robot_sim.presets import default_presets
 from robot_sim.scenes import Scene, TaskProgress, apply_seed, get_scene
+from robot_sim.scenes.grasp import actuate
 
 SETTLE_S = 0.3  # [s] physics in position hold at every (re)load, before compliance starts
 
@@ -150,6 +152,7 @@ class Simulation:
         self._peak_force = 0.0
         self._peak_torque = 0.0
         self._limited_s: dict[Limit, float] = {}  # [s] per limit, while the behavior ran
+        self._behavior_detail = ""  # what the running behavior's report will say (a grasp)
 
     @property
     def time(self) -> float:
@@ -214,8 +217,17 @@ class Simulation:
         self._peak_force = 0.0
         self._peak_torque = 0.0
         self._limited_s = {}
+        self._behavior_detail = ""
         behavior.start(self.controller, self.time)
+        if isinstance(behavior, Gripper):
+            self._behavior_detail = self._actuate_gripper(behavior.params.action)
         return preempted
+
+    def _actuate_gripper(self, action: str) -> str:
+        gripper = self.scene.gripper
+        if gripper is None:
+            return f"the {self.scene.name} scene's tool has no gripper"
+        return actuate(self.model, self.data, gripper, self.layout.port_site, action)
 
     def abort(self, detail: str = "aborted") -> BehaviorReport | None:
         """End the running behavior `aborted`; the attractor freezes where it is."""
@@ -237,6 +249,8 @@ class Simulation:
     def _finish(self, exit_condition: ExitCondition, detail: str = "") -> BehaviorReport:
         assert self.behavior is not None
         ctl = self.controller
+        if not detail:
+            detail = self._behavior_detail
         if not detail and self._limited_s:
             detail = limited_detail(self._limited_s)
         report = BehaviorReport(

@@ -10,10 +10,12 @@ from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Fie
 
 from robot_sim.errors import UnknownNameError
 from robot_sim.limits import MAX_SEED
-from robot_sim.params import DitherParams, PtwlParams, RweParams, StateMachineParams
+from robot_sim.params import DitherParams, GripperParams, PtwlParams, RweParams, StateMachineParams
 from robot_sim.scenes import SCENES, get_scene
 
-Command = Annotated[PtwlParams | RweParams | DitherParams | StateMachineParams, Field(discriminator="type")]
+Command = Annotated[
+    PtwlParams | RweParams | DitherParams | GripperParams | StateMachineParams, Field(discriminator="type")
+]
 CommandState = Literal["queued", "running", "done"]
 
 
@@ -61,14 +63,14 @@ class CommandStatus(BaseModel):
 
     id: int = Field(description="command id; never reused, across restarts too")
     instance: str = Field(description=INSTANCE_DOC)
-    type: Literal["ptwl", "rwe", "dither", "state_machine"] = Field(
-        description="the behavior, or a task's state machine"
+    type: Literal["ptwl", "rwe", "dither", "gripper", "state_machine"] = Field(
+        description="the behavior, the gripper, or a task's state machine"
     )
     status: CommandState = Field(description="queued, running or done")
     exit: str | None = Field(
         None,
-        description="goal_reached | wrench_breach | timeout | aborted | fault; a state machine: "
-        "completed | failed | aborted | fault",
+        description="goal_reached | wrench_breach | timeout | aborted | fault; an RWE or the gripper: "
+        "completed | timeout | aborted | fault; a state machine: completed | failed | aborted | fault",
     )
     params: dict[str, Any] = Field(description="the validated parameters, defaults filled in")
     queued_at: float = Field(description="[s] server wall clock, Unix time")
@@ -83,8 +85,8 @@ class CommandStatus(BaseModel):
     final_port: PoseModel | None = Field(None, description="port pose at exit; null if not finite")
     detail: str = Field(
         "",
-        description="why it ended, when there is more to say: stop, fault, or what held the port "
-        "back (`limited: singularity (1.20 s)`; also joint_limit, speed)",
+        description="why it ended, when there is more to say: stop, fault, what held the port "
+        "back (`limited: singularity (1.20 s)`; also joint_limit, speed), what the gripper holds",
     )
     sender: str | None = Field(
         None, description=f"who sent it, from the `{SENDER_HEADER}` request header; null if not said"
@@ -102,7 +104,9 @@ class CommandStatus(BaseModel):
 
 class MachineStepModel(BaseModel):
     index: int = Field(description="0, 1, ... in the order run")
-    behavior: Literal["ptwl", "rwe", "dither"] = Field(description="which behavior")
+    behavior: Literal["ptwl", "rwe", "dither", "gripper"] = Field(
+        description="which behavior (or the gripper)"
+    )
     params: dict[str, Any] = Field(description="its parameters, defaults filled in")
     why: str = Field(description="why the state machine chose it, from the previous step's report")
     exit: str = Field(description="how it ended")
@@ -112,6 +116,7 @@ class MachineStepModel(BaseModel):
     peak_torque: float | None = Field(description="[N m] max |tau| while it ran; null if not finite")
     final_wrench: list[float] | None = Field(description="[N, N m] environment on port at its exit")
     final_port: PoseModel | None = Field(description="port pose at its exit; null if not finite")
+    detail: str = Field(description="more on how it ended (what the gripper holds), or empty")
 
 
 class TaskProgressModel(BaseModel):

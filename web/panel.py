@@ -104,6 +104,10 @@ class Panel:
                 "Run state machine", color="blue", disabled=True, hint="STOP aborts it like any command"
             )
             self.task.on_update(lambda _: self._show_task())
+            # The tool tasks' gripper (paper 2.3.3-2.3.4): refused on a scene whose tool has none.
+            self.gripper_action = gui.add_dropdown("Gripper", ("close", "open"), initial_value="close")
+            self.gripper_check = gui.add_html(_check_html("gripper", "", []))
+            self.send_gripper = gui.add_button("Send gripper", color="blue", disabled=True)
 
         initial = defaults.stiffness_preset if defaults.stiffness_preset in stiffness_presets else None
         self.stiffness = gui.add_dropdown(
@@ -120,18 +124,21 @@ class Panel:
             "rwe": self.send_rwe,
             "dither": self.send_dither,
             "state_machine": self.send_task,
+            "gripper": self.send_gripper,
         }
         self._checks = {
             "ptwl": self.ptwl_check,
             "rwe": self.rwe_check,
             "dither": self.dither_check,
             "state_machine": self.task_check,
+            "gripper": self.gripper_check,
         }
         self._makers = {
             "ptwl": self.ptwl_params,
             "rwe": self.rwe_params,
             "dither": self.dither_params,
             "state_machine": self.task_params,
+            "gripper": self.gripper_params,
         }
         self._valid = dict.fromkeys(self.sends, True)
 
@@ -163,6 +170,8 @@ class Panel:
             return [*self.rwe_axes.values(), self.rwe_duration]
         if behavior == "state_machine":
             return [self.task]
+        if behavior == "gripper":
+            return [self.gripper_action]
         return [
             self.dither_preset,
             self.dither_mode,
@@ -241,6 +250,9 @@ class Panel:
 
     def task_params(self) -> dict[str, Any]:
         return {"task": str(self.task.value)}
+
+    def gripper_params(self) -> dict[str, Any]:
+        return {"action": str(self.gripper_action.value)}
 
     def rwe_params(self) -> dict[str, Any]:
         return {

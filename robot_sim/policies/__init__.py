@@ -19,10 +19,23 @@ from robot_sim.policies.quick_connect import QuickConnect
 from robot_sim.policies.run import Machine, StepRecord, trial_metrics
 from robot_sim.policies.sleeve_on_peg import SleeveOnPeg
 from robot_sim.policies.socket_wrench import SocketWrench
+from robot_sim.policies.tool_retrieval import ToolRetrieval
+from robot_sim.policies.tool_stowage import ToolStowage
 from robot_sim.sim import Simulation
 
 POLICIES: dict[str, type[Policy]] = {
-    p.task: p for p in (SleeveOnPeg, QuickConnect, Lid, Plug, SocketWrench, Door, Berthing)
+    p.task: p
+    for p in (
+        SleeveOnPeg,
+        QuickConnect,
+        Lid,
+        Plug,
+        SocketWrench,
+        Door,
+        Berthing,
+        ToolRetrieval,
+        ToolStowage,
+    )
 }
 
 

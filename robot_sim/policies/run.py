@@ -33,6 +33,7 @@ class StepRecord:
             "peak_torque": r.peak_torque,
             "final_wrench": list(r.final_wrench),
             "final_port": r.final_port.as_dict(),
+            "detail": r.detail,
         }
 
 
@@ -90,14 +91,16 @@ class Machine:
 
 
 def trial_metrics(steps: list[StepRecord]) -> dict[str, Any]:
-    """The paper's per-trial figures: peaks, run time, behaviors by kind, PTWLs by exit."""
+    """The paper's per-trial figures: peaks, run time, behaviors by kind, PTWLs by exit (the
+    gripper's closes and opens counted apart: not behaviors)."""
     reports = [s.report for s in steps]
     ptwl_exits = [r.exit.value for r in reports if r.behavior == "ptwl"]
     return {
         "max_force_n": max((r.peak_force for r in reports), default=0.0),
         "max_torque_nm": max((r.peak_torque for r in reports), default=0.0),
         "run_time_s": reports[-1].ended_at - reports[0].started_at if reports else 0.0,
-        "behaviors": len(reports),
+        "behaviors": sum(r.behavior != "gripper" for r in reports),
+        "gripper": sum(r.behavior == "gripper" for r in reports),
         "rwe": sum(r.behavior == "rwe" for r in reports),
         "dither": sum(r.behavior == "dither" for r in reports),
         "ptwl": {

@@ -16,6 +16,8 @@ from robot_sim.scenes import (
     sleeve_on_peg,
     socket_wrench,
     surface,
+    tool_retrieval,
+    tool_stowage,
 )
 from robot_sim.scenes.base import HOME_TOOL_DOWN, Scene, TaskProgress, apply_seed, fixture_offset
 from robot_sim.scenes.quick_connect import LATCH_STROKE_M
@@ -33,6 +35,8 @@ SCENES: dict[str, Scene] = {
         socket_wrench,
         door,
         berthing,
+        tool_retrieval,
+        tool_stowage,
     )
 }
 

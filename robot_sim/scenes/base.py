@@ -9,6 +9,8 @@ from typing import TYPE_CHECKING
 import mujoco
 import numpy as np
 
+from robot_sim.scenes.grasp import GripperSpec
+
 if TYPE_CHECKING:
     from robot_sim.sim import Simulation
 
@@ -50,10 +52,17 @@ class Scene:
     # A seed's layout when moving one body is not enough (the door's hinge about its knob);
     # replaces the fixture offset.
     randomise: Callable[[mujoco.MjModel, np.random.Generator], None] | None = None
+    # The tool's gripper, if it has one: what `gripper` commands close on.
+    gripper: GripperSpec | None = None
+    # Applied to every fresh model before a seed's layout: a start that the MJCF file shared
+    # with another scene does not say (the stowed tool already in the gripper).
+    prepare: Callable[[mujoco.MjModel], None] | None = None
 
 
 def apply_seed(scene: Scene, model: mujoco.MjModel, seed: int | None) -> None:
     """Lay out `model` (freshly built, not yet simulated) as `seed` says; None: nominal."""
+    if scene.prepare is not None:
+        scene.prepare(model)
     if seed is None:
         return
     rng = np.random.default_rng(seed)

@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 
 from robot_sim.scenes.base import HOME_TOOL_DOWN, Scene, TaskProgress
-from robot_sim.scenes.grasp import held_from_start
+from robot_sim.scenes.grasp import GripperSpec, held_from_start
 
 if TYPE_CHECKING:
     from robot_sim.sim import Simulation
@@ -63,4 +63,5 @@ SCENE = Scene(
     _berthing,
     held_from_start("grasp"),
     randomise=_posts_misplaced,
+    gripper=GripperSpec(weld="grasp", grasp_site="handle_grasp"),
 )

@@ -9,7 +9,7 @@ import mujoco
 import numpy as np
 
 from robot_sim.scenes.base import HOME_TOOL_DOWN, Scene, TaskProgress
-from robot_sim.scenes.grasp import grasp
+from robot_sim.scenes.grasp import GripperSpec, held_from_start
 
 if TYPE_CHECKING:
     from robot_sim.sim import Simulation
@@ -30,11 +30,11 @@ def _angle(model: mujoco.MjModel, data: mujoco.MjData, joint: str) -> float:
 def _latch(model: mujoco.MjModel) -> Callable[[mujoco.MjData], None]:
     """The latch: withdrawn while the knob is turned 20 degrees; once the door is shut and the
     knob let back, it catches again (the `latch` equality holds the hinge at 0)."""
-    latch, hold = model.equality("latch").id, model.equality("grasp").id
+    latch = model.equality("latch").id
+    hold_at_start = held_from_start("grasp")(model)
 
     def tick(data: mujoco.MjData) -> None:
-        if data.time == 0.0 or not data.eq_active[hold]:  # the task starts at the grasp
-            grasp(model, data, hold)
+        hold_at_start(data)
         knob, door = _angle(model, data, "knob_turn"), _angle(model, data, "door_hinge")
         if data.eq_active[latch] and knob >= RELEASE_RAD:
             data.eq_active[latch] = 0
@@ -84,4 +84,5 @@ SCENE = Scene(
     _door,
     _latch,
     randomise=_hinge_from_knob,
+    gripper=GripperSpec(weld="grasp", grasp_site="knob_grasp"),
 )

@@ -7,7 +7,7 @@ from fastapi.exceptions import RequestValidationError
 
 from guard.disconnect import client_gone
 from robot_sim.impact import impact_warnings
-from robot_sim.params import PtwlParams, StateMachineParams
+from robot_sim.params import GripperParams, PtwlParams, StateMachineParams
 from server.models import (
     NOT_FOUND_RESPONSES,
     QUEUE_FULL_RESPONSES,
@@ -47,8 +47,9 @@ async def submit_command(
         ),
     ] = None,
 ) -> CommandAccepted:
-    """Validate and queue a PTWL, RWE, Dither or a task's state machine (which runs its behaviors
-    as one command, each step announced as it ends); commands run in order, one at a time.
+    """Validate and queue a PTWL, RWE, Dither, a gripper close/open (scenes whose tool has one) or
+    a task's state machine (which runs its behaviors as one command, each step announced as it
+    ends); commands run in order, one at a time.
 
     `warnings` says what is accepted but worth knowing (an approach that will overshoot the
     force threshold on impact)."""
@@ -57,6 +58,9 @@ async def submit_command(
             f"the {params.task} state machine needs scene {params.task}; {runner.sim.scene.name} is loaded"
         )
         raise RequestValidationError([{"loc": ("body", "task"), "msg": message, "type": "value_error"}])
+    if isinstance(params, GripperParams) and runner.sim.scene.gripper is None:
+        message = f"the {runner.sim.scene.name} scene's tool has no gripper"
+        raise RequestValidationError([{"loc": ("body", "type"), "msg": message, "type": "value_error"}])
     record = book.submit(params, sender)
     warnings: list[str] = []
     if isinstance(params, PtwlParams):

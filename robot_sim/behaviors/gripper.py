@@ -1,0 +1,22 @@
+"""The gripper's close and open (paper 2.3.3-2.3.4): the attractor holds still while the jaws
+move; what closing catches is the scene's business (robot_sim/scenes/grasp.py), applied by the
+simulation when the command starts. It ends `completed` after its duration; the report's
+detail says what the jaws hold."""
+
+from robot_sim.behaviors.base import Behavior, ExitCondition
+from robot_sim.controller import AdmittanceController
+from robot_sim.params import GripperParams
+
+
+class Gripper(Behavior):
+    kind = "gripper"
+
+    def __init__(self, params: GripperParams) -> None:
+        self.params = params
+        self._t0 = 0.0
+
+    def start(self, ctl: AdmittanceController, t: float) -> None:
+        self._t0 = t  # the attractor stays where it is: a held force survives the grasp
+
+    def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:
+        return ExitCondition.COMPLETED if t - self._t0 >= self.params.duration else None

@@ -1,0 +1,76 @@
+"""The stowage bay both tool tasks use (paper 2.3.2, Fig. 4; assets/scenes/tool_bay.xml): its
+spring-loaded bayonet lock, the gripper that catches the tool, and what the bay can tell."""
+
+import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import mujoco
+import numpy as np
+
+from robot_sim.scenes.grasp import GripperSpec
+
+if TYPE_CHECKING:
+    from robot_sim.sim import Simulation
+
+LOCK_SPRING_NM_PER_RAD = 0.6
+LOCK_DAMPING_NMS_PER_RAD = 0.02
+IN_LOCK_M = 0.016  # the legs are in the lock (at or under the tabs' top) below this lift
+LOCKED_RAD = 0.15  # turned less than this, bottomed legs are under the tabs
+BOTTOMED_M = 0.001
+GRIPPER = GripperSpec(weld="grasp", grasp_site="tool_grasp")
+
+
+def lift_m(model: mujoco.MjModel, data: mujoco.MjData) -> float:
+    """[m] the tool's foot above the bay's floor."""
+    return float(
+        data.site_xpos[model.site("tool_base").id][2] - data.site_xpos[model.site("bay_floor").id][2]
+    )
+
+
+def turn_rad(model: mujoco.MjModel, data: mujoco.MjData) -> float:
+    """The tool's turn about the vertical from its locked angle (the bay's axes), (-pi, pi]."""
+    R_bay_tool = data.xmat[model.body("bay").id].reshape(3, 3).T @ data.xmat[
+        model.body("stow_tool").id
+    ].reshape(3, 3)
+    return float(math.atan2(R_bay_tool[1, 0], R_bay_tool[0, 0]))
+
+
+def lock_spring(model: mujoco.MjModel) -> Callable[[mujoco.MjData], None]:
+    """The lock's spring turns the legs back under the tabs while they are in the lock: a torque
+    about the vertical on the tool, proportional to its turn (and a little damping)."""
+    tool = model.body("stow_tool").id
+    dof = model.jnt_dofadr[model.body_jntadr[tool]]  # freejoint: 3 linear, then 3 angular (local)
+
+    def tick(data: mujoco.MjData) -> None:
+        torque = 0.0
+        if lift_m(model, data) < IN_LOCK_M:
+            spin = float(data.xmat[tool].reshape(3, 3)[2] @ data.qvel[dof + 3 : dof + 6])  # world z rate
+            torque = -LOCK_SPRING_NM_PER_RAD * turn_rad(model, data) - LOCK_DAMPING_NMS_PER_RAD * spin
+        data.xfrc_applied[tool, 3:6] = np.array([0.0, 0.0, torque])
+
+    return tick
+
+
+def held(sim: "Simulation") -> bool:
+    return bool(sim.data.eq_active[sim.model.equality(GRIPPER.weld).id])
+
+
+BAY_JITTER_M = 0.002  # a seed moves the bay up to this in x and y
+
+
+def bay_moved(with_tool: bool) -> Callable[[mujoco.MjModel, np.random.Generator], None]:
+    """Seeded: the bay (and the tool in it, `with_tool`) up to 2 mm off in x and y."""
+
+    def randomise(model: mujoco.MjModel, rng: np.random.Generator) -> None:
+        offset = rng.uniform(-BAY_JITTER_M, BAY_JITTER_M, 2)
+        model.body("bay").pos[0:2] += offset
+        if with_tool:
+            model.qpos0[tool_qpos(model) : tool_qpos(model) + 2] += offset
+
+    return randomise
+
+
+def tool_qpos(model: mujoco.MjModel) -> int:
+    """Where the tool's free joint starts in qpos (x, y, z, then the quaternion)."""
+    return int(model.jnt_qposadr[model.body_jntadr[model.body("stow_tool").id]])
