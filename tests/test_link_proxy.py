@@ -87,11 +87,11 @@ def check_record(records: list[dict], direction: str, n_min: int) -> list[dict]:
 def test_one_second_each_way_200_messages_per_second(fast_server: ServiceProcess, tmp_path: Path) -> None:
     record = tmp_path / "link.jsonl"
     with running_proxy(fast_server.url, "--uplink", "1", "--downlink", "1", "--record", str(record)) as proxy:
-        received = asyncio.run(exchange(proxy.url, seconds=11.0, send_hz=200.0))
+        received = asyncio.run(exchange(proxy.url, seconds=7.0, send_hz=200.0))
         time.sleep(1.5)  # the last uplink messages are still in flight
         stats = httpx.get(proxy.url + "/_link/stats").json()
     states = [(t, m) for t, m in received if m["type"] == "state"]
-    assert len(states) >= 9.5 * 200  # ~10 s of telemetry after the first second in flight
+    assert len(states) >= 5.5 * 200  # ~6 s of telemetry after the first second in flight
     assert all(
         b["seq"] - a["seq"] == 1 for (_, a), (_, b) in itertools.pairwise(states)
     )  # none lost, in order
@@ -102,8 +102,8 @@ def test_one_second_each_way_200_messages_per_second(fast_server: ServiceProcess
     assert ages[0] >= 1.0 - 0.002
     assert ages[len(ages) // 2] <= 1.0 + 0.005 and ages[int(0.99 * len(ages))] <= 1.0 + 0.05
     records = read_record(record)
-    down = check_record(records, "downlink", 9 * 200)
-    up = check_record(records, "uplink", 9 * 200)
+    down = check_record(records, "downlink", 5 * 200)
+    up = check_record(records, "uplink", 5 * 200)
     assert all(r["configured_delay"] == pytest.approx(1.0) for r in down + up)
     for direction in ("uplink", "downlink"):
         s = stats[direction]

@@ -11,6 +11,7 @@ import httpx
 import pytest
 
 from ptwl.launcher import ServiceProcess
+from robot_sim.scenes import SCENES
 from server.client import RobotClient
 
 BAD_COMMANDS = {
@@ -172,10 +173,7 @@ def test_unknown_scene_lists_the_valid_ones(
     before = robot.health().sim_time
     response = httpx.post(server.url + "/api/scene", json={"name": "moon"})
     assert response.status_code == 422
-    assert (
-        response.json()["detail"]
-        == "name: unknown scene 'moon'; valid: free_space, lid, quick_connect, sleeve_on_peg, surface"
-    )
+    assert response.json()["detail"] == f"name: unknown scene 'moon'; valid: {', '.join(sorted(SCENES))}"
     assert_nothing_lost(robot, running, queued, before)
 
 

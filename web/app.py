@@ -146,6 +146,7 @@ class ConsoleApp:
             self.send,
             self.check,
         )
+        desk.panel.show_scene_task(self.scene_name)
         with self._lock:
             self._desks[client.client_id] = desk
 
@@ -250,6 +251,8 @@ class ConsoleApp:
         with self.server.atomic():
             self.view.load(geometry)
         self.scene_name = geometry.scene
+        for desk in self.desks():
+            desk.panel.show_scene_task(geometry.scene)
 
     # ------------------------------------------------------------ telemetry
     def _on_state(self, state: dict[str, Any], arrived: float) -> None:

@@ -214,6 +214,12 @@ class Panel:
     def _show_stiffness(self) -> None:
         self.stiffness_info.content = self._stiffness_html()
 
+    def show_scene_task(self, scene: str) -> None:
+        """Pick the loaded scene's task (each task's machine runs only on its own scene)."""
+        if scene in self.tasks and self.task.value != scene:
+            _set(self.task, scene)
+            self._show_task()
+
     def _show_task(self) -> None:
         self.task_summary.content = _summary_html(self.tasks.get(str(self.task.value), ""))
 

@@ -35,7 +35,7 @@ OPEN_RAD = 0.95
 SHUT_RAD = math.radians(2.0)
 RELIEVE = RweParams(duration=1.0)
 # Slow: with `hinge`'s 1000 N s/m, the port moves 1 mm/s per newton of pull along the arc.
-SWING_S = 12.0
+SWING_S = 10.0
 
 
 def swing(about_minus_y_rad: float, torque_threshold_nm: float, duration_s: float = SWING_S) -> PtwlParams:
