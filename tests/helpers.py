@@ -1,9 +1,14 @@
 """Shared measurement helpers for the robot_sim tests."""
 
+import os
+from concurrent.futures import ProcessPoolExecutor
+from typing import Any
+
 import numpy as np
 
 from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
 from robot_sim.gains import Gains
+from robot_sim.policies import run_onboard
 from robot_sim.pose_math import rotate_world
 from robot_sim.sim import Simulation
 
@@ -53,3 +58,13 @@ def report_down(
     return BehaviorReport(
         behavior, exit_condition, 0.0, 1.0, peak, 0.1, (0.0,) * 6, Pose((x, y, z - depth_m), DOWN_WXYZ)
     )
+
+
+def _onboard(task_seed: tuple[str, int]) -> dict[str, Any]:
+    return run_onboard(*task_seed).as_dict()
+
+
+def ten_seeds(task: str) -> list[dict[str, Any]]:
+    """`task`'s machine run headless on seeds 0-9, on every core: each run's `as_dict()`."""
+    with ProcessPoolExecutor(max_workers=os.cpu_count()) as pool:
+        return list(pool.map(_onboard, [(task, seed) for seed in range(10)]))

@@ -1,16 +1,13 @@
 """Berthing (paper 2.3.1, Fig. 3b): a heavy sled on a frictionless plane pressed onto two posts;
 the torque at first contact says which way to slide."""
 
-import os
-from concurrent.futures import ProcessPoolExecutor
-
 import pytest
 
 from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose, Ptwl
 from robot_sim.params import PtwlParams, RweParams
 from robot_sim.policies import Finish, Step, berthing, run_onboard
 from robot_sim.sim import Simulation
-from tests.helpers import DOWN_WXYZ
+from tests.helpers import DOWN_WXYZ, ten_seeds
 
 
 def at(
@@ -100,13 +97,8 @@ def test_posts_out_of_reach_fail_the_machine() -> None:
     assert run.end == "failed" and not run.success and "no contact" in run.why
 
 
-def seeded(seed: int) -> dict[str, object]:
-    return run_onboard("berthing", seed).as_dict()
-
-
 def test_ten_seeds_berth_the_sled_onboard() -> None:
-    with ProcessPoolExecutor(max_workers=os.cpu_count()) as pool:
-        runs = list(pool.map(seeded, range(10)))
+    runs = ten_seeds("berthing")
     assert all(r["success"] and r["end"] == "completed" for r in runs), [(r["seed"], r["why"]) for r in runs]
     assert all(r["max_force_n"] <= 20.0 for r in runs), [r["max_force_n"] for r in runs]
     assert sum("slide toward" in r["steps"][1]["why"] for r in runs) >= 8  # most need the slide

@@ -222,7 +222,7 @@ def test_a_stop_that_fails_stays_on_screen_and_a_dead_console_shows(browser) -> 
         page.wait_for_function(
             "document.querySelector('#ptwl-stop')?.dataset.phase === 'failed'", timeout=15_000
         )
-        time.sleep(8.0)
+        time.sleep(6.5)  # past the 6 s a notification lasts
         stop = page.locator("#ptwl-stop")
         assert stop.get_attribute("data-phase") == "failed" and stop.is_visible()
         assert "NOT CONFIRMED" in stop.inner_text()

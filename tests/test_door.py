@@ -2,8 +2,6 @@
 zero translational stiffness lets the port follow the hinge's arc wherever the hinge is."""
 
 import math
-import os
-from concurrent.futures import ProcessPoolExecutor
 
 import mujoco
 import numpy as np
@@ -14,7 +12,7 @@ from robot_sim.params import PtwlParams, RweParams
 from robot_sim.policies import Finish, Step, door, run_onboard
 from robot_sim.scenes.door import door_angle_rad
 from robot_sim.sim import Simulation
-from tests.helpers import DOWN_WXYZ
+from tests.helpers import DOWN_WXYZ, ten_seeds
 
 HOME = Pose((0.378, 0.0, 0.2765), DOWN_WXYZ)
 
@@ -114,13 +112,8 @@ def test_a_knob_that_will_not_turn_fails_and_is_not_counted() -> None:
     assert run.end == "failed" and not run.success and "knob turned only" in run.why
 
 
-def seeded(seed: int) -> dict[str, object]:
-    return run_onboard("door", seed).as_dict()
-
-
 def test_ten_seeds_open_and_shut_the_door_onboard_wherever_the_hinge_is() -> None:
-    with ProcessPoolExecutor(max_workers=os.cpu_count()) as pool:
-        runs = list(pool.map(seeded, range(10)))
+    runs = ten_seeds("door")
     assert all(r["success"] and r["end"] == "completed" for r in runs), [(r["seed"], r["why"]) for r in runs]
     assert all(r["max_force_n"] <= 20.0 for r in runs), [r["max_force_n"] for r in runs]
     assert all(45.0 <= r["progress"] <= 60.0 for r in runs), [r["progress"] for r in runs]

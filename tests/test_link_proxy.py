@@ -117,13 +117,13 @@ def test_jitter_keeps_order_and_reports_realized_delay(fast_server: ServiceProce
     jitter = {"distribution": "uniform", "amount": 0.3, "seed": 11}
     with running_proxy(fast_server.url, "--uplink", "1", "--downlink", "1", "--record", str(record)) as proxy:
         httpx.put(proxy.url + "/_link/profile", json={"jitter": jitter}).raise_for_status()
-        received = asyncio.run(exchange(proxy.url, seconds=6.0, send_hz=200.0))
+        received = asyncio.run(exchange(proxy.url, seconds=4.0, send_hz=200.0))
         time.sleep(1.5)
         stats = httpx.get(proxy.url + "/_link/stats").json()
     states = [m for _, m in received if m["type"] == "state"]
     assert all(b["seq"] - a["seq"] == 1 for a, b in itertools.pairwise(states))
     records = read_record(record)
-    down = check_record(records, "downlink", 4 * 200)
+    down = check_record(records, "downlink", 500)
     drawn = [r["configured_delay"] for r in down]
     assert min(drawn) < 0.8 and max(drawn) > 1.2  # the jitter is there...
     assert stats["downlink"]["reorderings"] == 0 and stats["downlink"]["early_releases"] == 0  # ...order kept

@@ -1,9 +1,6 @@
 """Plug insertion (paper 2.3.7, Fig. 10): contact, slide along y in contact until the prongs drop
 into the holes and the y force crosses the threshold, insert deep."""
 
-import os
-from concurrent.futures import ProcessPoolExecutor
-
 import numpy as np
 import pytest
 
@@ -12,7 +9,7 @@ from robot_sim.params import PtwlParams, RweParams
 from robot_sim.policies import Finish, Step, plug, run_onboard
 from robot_sim.scenes import fixture_offset, get_scene
 from robot_sim.sim import Simulation
-from tests.helpers import DOWN_WXYZ, report_down
+from tests.helpers import DOWN_WXYZ, report_down, ten_seeds
 
 HOME = Pose((0.378, 0.0, 0.2785), DOWN_WXYZ)
 
@@ -89,13 +86,8 @@ def test_an_outlet_out_of_the_slides_reach_fails_and_is_not_counted() -> None:
     assert [s.params.translation[1] for s in run.steps[1:]] == pytest.approx([0.012, -0.024])
 
 
-def seeded(seed: int) -> dict[str, object]:
-    return run_onboard("plug", seed).as_dict()
-
-
 def test_ten_seeds_plug_in_onboard_and_the_y_force_ends_the_slide() -> None:
-    with ProcessPoolExecutor(max_workers=os.cpu_count()) as pool:
-        runs = list(pool.map(seeded, range(10)))
+    runs = ten_seeds("plug")
     assert all(r["success"] and r["end"] == "completed" for r in runs), [(r["seed"], r["why"]) for r in runs]
     assert all(r["max_force_n"] <= 20.0 for r in runs), [r["max_force_n"] for r in runs]
     for r in runs:

@@ -1,9 +1,6 @@
 """Socket wrench insertion (paper 2.3.10, Fig. 13): the detent ball catches the socket's edge on
 every insertion; tilting toward it presses it in."""
 
-import os
-from concurrent.futures import ProcessPoolExecutor
-
 import pytest
 
 from robot_sim.behaviors import ExitCondition, Pose, Ptwl
@@ -11,7 +8,7 @@ from robot_sim.params import PtwlParams, RweParams
 from robot_sim.policies import Finish, Step, run_onboard
 from robot_sim.policies import socket_wrench as sw
 from robot_sim.sim import Simulation
-from tests.helpers import DOWN_WXYZ, report_down
+from tests.helpers import DOWN_WXYZ, report_down, ten_seeds
 
 HOME = Pose((0.378, 0.0, 0.2965), DOWN_WXYZ)
 
@@ -105,13 +102,8 @@ def test_a_socket_off_beyond_the_chamfer_fails_and_is_not_counted() -> None:
     assert run.end == "failed" and not run.success and "2 tilts" in run.why
 
 
-def seeded(seed: int) -> dict[str, object]:
-    return run_onboard("socket_wrench", seed).as_dict()
-
-
 def test_ten_seeds_insert_the_shank_onboard_each_after_tilting_past_the_ball() -> None:
-    with ProcessPoolExecutor(max_workers=os.cpu_count()) as pool:
-        runs = list(pool.map(seeded, range(10)))
+    runs = ten_seeds("socket_wrench")
     assert all(r["success"] and r["end"] == "completed" for r in runs), [(r["seed"], r["why"]) for r in runs]
     assert all(r["max_force_n"] <= 30.0 for r in runs), [r["max_force_n"] for r in runs]
     for r in runs:  # even aligned, the ball catches every time, and the tilt follows

@@ -2,8 +2,6 @@
 closing impact, the bay's spring-loaded bayonet lock, and both state machines."""
 
 import math
-import os
-from concurrent.futures import ProcessPoolExecutor
 
 import httpx
 import pytest
@@ -15,6 +13,7 @@ from robot_sim.policies import tool_bay as moves
 from robot_sim.scenes.tool_bay import held, lift_m, turn_rad
 from robot_sim.sim import Simulation
 from server.client import RobotClient
+from tests.helpers import ten_seeds
 
 CLOSE, OPEN = Gripper(GripperParams(action="close")), GripperParams(action="open")
 
@@ -92,14 +91,9 @@ def test_a_bay_out_of_reach_fails_stowage_and_is_not_counted() -> None:
 
 
 # -------------------------------------------------------------------------- the machines
-def seeded(task_seed: tuple[str, int]) -> dict[str, object]:
-    return run_onboard(*task_seed).as_dict()
-
-
 @pytest.mark.parametrize("task", ["tool_retrieval", "tool_stowage"])
 def test_ten_seeds_retrieve_and_stow_onboard(task: str) -> None:
-    with ProcessPoolExecutor(max_workers=os.cpu_count()) as pool:
-        runs = list(pool.map(seeded, [(task, seed) for seed in range(10)]))
+    runs = ten_seeds(task)
     assert all(r["success"] and r["end"] == "completed" for r in runs), [(r["seed"], r["why"]) for r in runs]
     assert all(r["max_force_n"] <= 40.0 for r in runs), [r["max_force_n"] for r in runs]
     assert all(r["gripper"] == 1 for r in runs)

@@ -62,3 +62,30 @@ class Policy(ABC):
     @abstractmethod
     def next(self, report: BehaviorReport) -> Decision:
         """Given how the last behavior ended, the next step or the end."""
+
+
+class StagedPolicy(Policy):
+    """A policy that names its steps: `last` is the one whose report comes next, `start` where
+    the port was when the machine began (what depth, swing and turn are measured from)."""
+
+    def __init__(self, overrides: dict[str, object] | None = None) -> None:
+        super().__init__(overrides)
+        self.home: Pose | None = None
+        self.last = ""
+
+    def first(self, port: Pose) -> Step:
+        self.home = port
+        return self.opening()
+
+    @abstractmethod
+    def opening(self) -> Step:
+        """The first step (through `stage`, so that it is named)."""
+
+    def stage(self, name: str, params: BehaviorParams, why: str) -> Step:
+        self.last = name
+        return Step(params, why)
+
+    @property
+    def start(self) -> Pose:
+        assert self.home is not None, "next() before first()"
+        return self.home

@@ -21,9 +21,9 @@ from the torque at first contact, never from the predicate.
 
 import numpy as np
 
-from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
+from robot_sim.behaviors import BehaviorReport, ExitCondition
 from robot_sim.params import PtwlParams, RweParams
-from robot_sim.policies.base import Decision, Finish, Policy, Step
+from robot_sim.policies.base import Decision, Finish, StagedPolicy, Step
 
 F_THRESH_N = 15.0
 TAU_THRESH_NM = 0.2
@@ -50,7 +50,7 @@ def slide(toward_y: float) -> PtwlParams:
     return planar([0.004, toward_y * 0.012, 0.0], 4.0)
 
 
-class Berthing(Policy):
+class Berthing(StagedPolicy):
     task = "berthing"
     summary = (
         "press onto the posts; slide toward the side the first contact's torque shows; press until seated"
@@ -58,21 +58,16 @@ class Berthing(Policy):
 
     def __init__(self, overrides: dict[str, object] | None = None) -> None:
         super().__init__(overrides)
-        self.last = "approach"  # the step whose report comes next
         self.presses = 0
         self.pressed_from_x = 0.0  # [m] base x of the port before the last press
 
-    def first(self, port: Pose) -> Step:
-        return Step(APPROACH, "approach: PTWL 60 mm forward at up to 15 N, onto the posts")
-
-    def _step(self, name: str, params: PtwlParams | RweParams, why: str) -> Step:
-        self.last = name
-        return Step(params, why)
+    def opening(self) -> Step:
+        return self.stage("approach", APPROACH, "approach: PTWL 60 mm forward at up to 15 N, onto the posts")
 
     def _press(self, report: BehaviorReport, why: str) -> Step:
         self.pressed_from_x = report.final_port.position[0]
         self.presses += 1
-        return self._step("press", PRESS, why)
+        return self.stage("press", PRESS, why)
 
     def next(self, report: BehaviorReport) -> Decision:
         if self.last == "approach":
@@ -82,19 +77,19 @@ class Berthing(Policy):
             if abs(tau_z) < TAU_THRESH_NM:
                 return self._press(report, f"contact, tau_z {tau_z:+.2f} N m: aligned; press forward")
             toward = float(np.sign(tau_z))
-            return self._step(
+            return self.stage(
                 "slide",
                 slide(toward),
                 f"contact, tau_z {tau_z:+.2f} N m: slide toward {'+' if toward > 0 else '-'}y, pressing",
             )
         if self.last == "slide":
-            return self._step("relieve", RELIEVE, f"slid ({report.exit}): relieve before pressing")
+            return self.stage("relieve", RELIEVE, f"slid ({report.exit}): relieve before pressing")
         if self.last == "press":
             advance = report.final_port.position[0] - self.pressed_from_x
             # Never on the first press: its relieve lets the sled square up, and the next press
             # can still draw it in.
             name = "done" if advance < SEATED_ADVANCE_M and self.presses >= 2 else "relieve"
-            return self._step(
+            return self.stage(
                 name, RELIEVE, f"press advanced {1000 * advance:.1f} mm ({report.exit}): relieve"
             )
         if self.last == "relieve":

@@ -24,9 +24,9 @@ import math
 
 from pydantic import Field
 
-from robot_sim.behaviors import BehaviorReport, Pose
+from robot_sim.behaviors import BehaviorReport
 from robot_sim.params import PtwlParams, RweParams
-from robot_sim.policies.base import Decision, Finish, Policy, PolicySettings, Step
+from robot_sim.policies.base import Decision, Finish, PolicySettings, StagedPolicy, Step
 from robot_sim.policies.travel import tool_axis_tilt_rad, twist_about_tool_axis_rad
 
 TURN_RAD = 0.5
@@ -57,7 +57,7 @@ class DoorSettings(PolicySettings):
     open_deg: float = Field(46.0, ge=10.0, le=90.0, description="[deg] how far to open before closing")
 
 
-class Door(Policy):
+class Door(StagedPolicy):
     task = "door"
     summary = "turn the knob; swing open about the hinge with soft translation; swing shut; let go; check"
     settings_model = DoorSettings
@@ -65,32 +65,24 @@ class Door(Policy):
 
     def __init__(self, overrides: dict[str, object] | None = None) -> None:
         super().__init__(overrides)
-        self.home: Pose | None = None
-        self.last = "turn"  # the step whose report comes next
         self.turned_rad = 0.0
         self.opened_rad = 0.0
         self.opens = 0
 
-    def first(self, port: Pose) -> Step:
-        self.home = port
+    def opening(self) -> Step:
         turn = PtwlParams(rotation=[0.0, 0.0, TURN_RAD], duration=2.0, preset="medium")
-        return Step(turn, "turn the knob 0.5 rad about the tool axis to withdraw the latch")
-
-    def _step(self, name: str, params: PtwlParams | RweParams, why: str) -> Step:
-        self.last = name
-        return Step(params, why)
+        return self.stage("turn", turn, "turn the knob 0.5 rad about the tool axis to withdraw the latch")
 
     def next(self, report: BehaviorReport) -> Decision:
-        assert self.home is not None, "next() before first()"
-        tilt = tool_axis_tilt_rad(self.home, report.final_port)
+        tilt = tool_axis_tilt_rad(self.start, report.final_port)
         angle = f"door at {math.degrees(tilt):.1f} deg"
         if self.last == "turn":
-            self.turned_rad = twist_about_tool_axis_rad(self.home, report.final_port)
+            self.turned_rad = twist_about_tool_axis_rad(self.start, report.final_port)
             if self.turned_rad < TURNED_RAD:
                 return Finish(
                     False, f"the knob turned only {math.degrees(self.turned_rad):.0f} deg ({report.exit})"
                 )
-            return self._step(
+            return self.stage(
                 "open",
                 swing(OPEN_RAD, 3.0),
                 f"knob turned {math.degrees(self.turned_rad):.0f} deg: swing it open, translation soft",
@@ -98,7 +90,7 @@ class Door(Policy):
         if self.last == "open":
             self.opened_rad = tilt
             if tilt >= math.radians(self.settings.open_deg):
-                return self._step(
+                return self.stage(
                     "close", swing(-(tilt + 0.05), 2.0), f"opened ({angle}, {report.exit}): swing it shut"
                 )
             if self.opens == self.settings.max_recoveries:
@@ -106,22 +98,22 @@ class Door(Policy):
                     False, f"opened only to {math.degrees(tilt):.1f} deg after {self.opens + 1} tries"
                 )
             self.opens += 1
-            return self._step(
+            return self.stage(
                 "open", swing(OPEN_RAD - tilt, 3.0), f"only {angle} ({report.exit}): open again"
             )
         if self.last == "close":
             if tilt > SHUT_RAD:
                 return Finish(False, f"not shut: {angle} ({report.exit})")
-            return self._step("relieve", RELIEVE, f"shut ({angle}, {report.exit}): relieve the press")
+            return self.stage("relieve", RELIEVE, f"shut ({angle}, {report.exit}): relieve the press")
         if self.last == "relieve":
             let_go = PtwlParams(rotation=[0.0, 0.0, -self.turned_rad], duration=2.0, preset="medium")
-            return self._step("let go", let_go, "let the knob back so the latch catches")
+            return self.stage("let go", let_go, "let the knob back so the latch catches")
         if self.last == "let go":
-            return self._step(
+            return self.stage(
                 "check", swing(0.2, 1.0, 2.0), "check the latch: pull it open 0.2 rad at up to 1 N m"
             )
         if self.last == "check":
             if tilt > SHUT_RAD:
                 return Finish(False, f"the latch did not hold: {angle} ({report.exit})")
-            return self._step("done", RELIEVE, f"latched: it did not move ({angle}, {report.exit}); relieve")
+            return self.stage("done", RELIEVE, f"latched: it did not move ({angle}, {report.exit}); relieve")
         return Finish(True, f"opened to {math.degrees(self.opened_rad):.1f} deg, shut and latched")

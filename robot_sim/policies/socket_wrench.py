@@ -19,9 +19,9 @@ nominally 10 mm below home), never by the predicate.
 
 from pydantic import Field
 
-from robot_sim.behaviors import BehaviorReport, Pose
+from robot_sim.behaviors import BehaviorReport
 from robot_sim.params import PtwlParams, RweParams
-from robot_sim.policies.base import Decision, Finish, Policy, PolicySettings, Step
+from robot_sim.policies.base import Decision, Finish, PolicySettings, StagedPolicy, Step
 from robot_sim.policies.travel import travel_down_tool_axis_m
 
 TOP_M = 0.010  # [m] nominal travel from home to the socket's top
@@ -37,7 +37,7 @@ class SocketWrenchSettings(PolicySettings):
     )
 
 
-class SocketWrench(Policy):
+class SocketWrench(StagedPolicy):
     task = "socket_wrench"
     summary = "insert; when the detent ball catches the edge, tilt toward it to press it in; insert; relieve"
     settings_model = SocketWrenchSettings
@@ -63,37 +63,29 @@ class SocketWrench(Policy):
             force_threshold=20.0,
             preset="medium",
         )
-        self.home: Pose | None = None
         self.tilts = 0
-        self.last: str = "approach"  # the step whose report comes next
 
-    def first(self, port: Pose) -> Step:
-        self.home = port
-        return Step(APPROACH, "approach: PTWL 30 mm down at up to 15 N")
-
-    def _step(self, name: str, params: PtwlParams | RweParams, why: str) -> Step:
-        self.last = name
-        return Step(params, why)
+    def opening(self) -> Step:
+        return self.stage("approach", APPROACH, "approach: PTWL 30 mm down at up to 15 N")
 
     def next(self, report: BehaviorReport) -> Decision:
-        assert self.home is not None, "next() before first()"
-        travel = travel_down_tool_axis_m(self.home, report.final_port)
+        travel = travel_down_tool_axis_m(self.start, report.final_port)
         depth = f"{1000 * travel:.1f} mm down"
         if self.last == "relieve":
             return Finish(True, f"shank in and relieved ({report.exit}, {depth})")
         if self.last == "tilt":
-            return self._step(
+            return self.stage(
                 "insert", self.insert, f"tilted ({depth}, {report.exit}): insert, turning upright"
             )
         if self.last == "relieve_jam":
-            return self._step("tilt", self.tilt, f"relieved ({depth}): tilt toward the detent again")
+            return self.stage("tilt", self.tilt, f"relieved ({depth}): tilt toward the detent again")
         if travel >= INSERTED_M:
-            return self._step("relieve", RELIEVE, f"in ({depth}, {report.exit}): relieve")
+            return self.stage("relieve", RELIEVE, f"in ({depth}, {report.exit}): relieve")
         if travel < TOP_M - 0.002:
             return Finish(False, f"{report.exit} {depth}: above where the socket should be")
         if self.last == "approach":
             self.tilts += 1
-            return self._step(
+            return self.stage(
                 "tilt",
                 self.tilt,
                 f"caught at the mouth ({depth}, {report.exit} at {report.peak_force:.1f} N): the detent "
@@ -102,4 +94,4 @@ class SocketWrench(Policy):
         if self.tilts > self.settings.max_recoveries:
             return Finish(False, f"still short ({depth}) after {self.tilts} tilts")
         self.tilts += 1
-        return self._step("relieve_jam", RELIEVE, f"short ({depth}, {report.exit}): relieve, then tilt again")
+        return self.stage("relieve_jam", RELIEVE, f"short ({depth}, {report.exit}): relieve, then tilt again")

@@ -13,9 +13,8 @@ behavior is used to finely adjust the attractor position and further eliminate f
     extract   PTWL 60 mm up -> the goal reached: completed; stopped (still caught): failed
 """
 
-from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
-from robot_sim.params import GripperParams, PtwlParams, RweParams
-from robot_sim.policies.base import Decision, Finish, Policy, Step
+from robot_sim.behaviors import BehaviorReport, ExitCondition
+from robot_sim.policies.base import Decision, Finish, StagedPolicy, Step
 from robot_sim.policies.tool_bay import CLOSE, OPENED_RAD, RELIEVE, TURN_OPEN_RAD, down, turn, turned_deg, up
 from robot_sim.policies.travel import travel_down_tool_axis_m
 
@@ -23,43 +22,34 @@ APPROACH = down(0.04)
 EXTRACT = up(0.06)
 
 
-class ToolRetrieval(Policy):
+class ToolRetrieval(StagedPolicy):
     task = "tool_retrieval"
     summary = "down onto the tool; close the gripper; relieve; turn the lock open; lift it out"
 
-    def __init__(self, overrides: dict[str, object] | None = None) -> None:
-        super().__init__(overrides)
-        self.home: Pose | None = None
-        self.last = "approach"
-
-    def first(self, port: Pose) -> Step:
-        self.home = port
-        return Step(APPROACH, "approach: PTWL 40 mm down at up to 10 N, onto the tool's knob")
-
-    def _step(self, name: str, params: PtwlParams | RweParams | GripperParams, why: str) -> Step:
-        self.last = name
-        return Step(params, why)
+    def opening(self) -> Step:
+        return self.stage(
+            "approach", APPROACH, "approach: PTWL 40 mm down at up to 10 N, onto the tool's knob"
+        )
 
     def next(self, report: BehaviorReport) -> Decision:
-        assert self.home is not None, "next() before first()"
         if self.last == "approach":
-            depth = 1000 * travel_down_tool_axis_m(self.home, report.final_port)
+            depth = 1000 * travel_down_tool_axis_m(self.start, report.final_port)
             if report.exit is not ExitCondition.WRENCH_BREACH:
                 return Finish(False, f"nothing under the gripper ({report.exit}, {depth:.1f} mm down)")
-            return self._step("grasp", CLOSE, f"on the knob ({depth:.1f} mm down): close the gripper")
+            return self.stage("grasp", CLOSE, f"on the knob ({depth:.1f} mm down): close the gripper")
         if self.last == "grasp":
             if not report.detail.startswith("holding"):
                 return Finish(False, f"the gripper {report.detail}")
-            return self._step("relieve", RELIEVE, f"{report.detail}: relieve the closing impact")
+            return self.stage("relieve", RELIEVE, f"{report.detail}: relieve the closing impact")
         if self.last == "relieve":
-            return self._step(
+            return self.stage(
                 "unlock", turn(-TURN_OPEN_RAD), "turn the tool 0.8 rad: its legs out from under the tabs"
             )
         if self.last == "unlock":
-            turned = turned_deg(self.home, report)
+            turned = turned_deg(self.start, report)
             if turned < OPENED_RAD * 57.29578:
                 return Finish(False, f"the lock turned only {turned:.0f} deg ({report.exit})")
-            return self._step("extract", EXTRACT, f"lock open ({turned:.0f} deg): lift the tool out")
+            return self.stage("extract", EXTRACT, f"lock open ({turned:.0f} deg): lift the tool out")
         if report.exit is ExitCondition.GOAL_REACHED:
             return Finish(True, "the tool is out of the bay, in the gripper")
         return Finish(False, f"the tool would not come out ({report.exit} at {report.peak_force:.1f} N)")

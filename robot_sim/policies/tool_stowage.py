@@ -13,9 +13,8 @@ rotating the lock closed. The gripper then releases the tool before leaving the 
     leave     PTWL 30 mm up -> the goal reached: completed
 """
 
-from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
-from robot_sim.params import GripperParams, PtwlParams, RweParams
-from robot_sim.policies.base import Decision, Finish, Policy, Step
+from robot_sim.behaviors import BehaviorReport, ExitCondition
+from robot_sim.policies.base import Decision, Finish, StagedPolicy, Step
 from robot_sim.policies.tool_bay import OPEN, OPENED_RAD, TURN_OPEN_RAD, down, turn, turned_deg, up
 from robot_sim.policies.travel import travel_down_tool_axis_m
 
@@ -24,51 +23,42 @@ PAST_STOP_M = 0.015  # [m] travel: the legs are below the tabs' top
 BOTTOM_M = 0.018  # [m] travel: the tool on the floor (20 mm down nominally)
 
 
-class ToolStowage(Policy):
+class ToolStowage(StagedPolicy):
     task = "tool_stowage"
     summary = "down onto the lock; turn it open; bottom out; turn it shut; open the gripper; leave"
 
-    def __init__(self, overrides: dict[str, object] | None = None) -> None:
-        super().__init__(overrides)
-        self.home: Pose | None = None
-        self.last = "approach"
-
-    def first(self, port: Pose) -> Step:
-        self.home = port
-        return Step(APPROACH, "approach: PTWL 30 mm down at up to 10 N, onto the lock's upper stop")
-
-    def _step(self, name: str, params: PtwlParams | RweParams | GripperParams, why: str) -> Step:
-        self.last = name
-        return Step(params, why)
+    def opening(self) -> Step:
+        return self.stage(
+            "approach", APPROACH, "approach: PTWL 30 mm down at up to 10 N, onto the lock's upper stop"
+        )
 
     def next(self, report: BehaviorReport) -> Decision:
-        assert self.home is not None, "next() before first()"
-        depth_m = travel_down_tool_axis_m(self.home, report.final_port)
+        depth_m = travel_down_tool_axis_m(self.start, report.final_port)
         depth = f"{1000 * depth_m:.1f} mm down"
         if self.last == "approach":
             if depth_m >= PAST_STOP_M:
-                return self._step("bottom", down(0.03), f"past the tabs already ({depth}): bottom out")
-            return self._step(
+                return self.stage("bottom", down(0.03), f"past the tabs already ({depth}): bottom out")
+            return self.stage(
                 "unlock",
                 turn(-TURN_OPEN_RAD),
                 f"on the upper stop ({depth}, {report.exit}): turn the lock open",
             )
         if self.last == "unlock":
-            turned = turned_deg(self.home, report)
+            turned = turned_deg(self.start, report)
             if turned < OPENED_RAD * 57.29578:
                 return Finish(False, f"the lock turned only {turned:.0f} deg ({report.exit})")
-            return self._step("bottom", down(0.03), f"lock open ({turned:.0f} deg): bottom out")
+            return self.stage("bottom", down(0.03), f"lock open ({turned:.0f} deg): bottom out")
         if self.last == "bottom":
             if depth_m < BOTTOM_M:
                 return Finish(False, f"stopped short of the floor ({depth}, {report.exit})")
-            turned = turned_deg(self.home, report)
-            return self._step("lock", turn(turned / 57.29578), f"bottomed ({depth}): turn the lock shut")
+            turned = turned_deg(self.start, report)
+            return self.stage("lock", turn(turned / 57.29578), f"bottomed ({depth}): turn the lock shut")
         if self.last == "lock":
-            return self._step(
-                "release", OPEN, f"locked ({turned_deg(self.home, report):.0f} deg): open the gripper"
+            return self.stage(
+                "release", OPEN, f"locked ({turned_deg(self.start, report):.0f} deg): open the gripper"
             )
         if self.last == "release":
-            return self._step("leave", up(0.03), f"{report.detail}: leave the bay")
+            return self.stage("leave", up(0.03), f"{report.detail}: leave the bay")
         if report.exit is ExitCondition.GOAL_REACHED:
             return Finish(True, "stowed, locked and let go")
         return Finish(False, f"could not leave the bay ({report.exit} at {report.peak_force:.1f} N)")

@@ -59,6 +59,11 @@ class Scene:
     prepare: Callable[[mujoco.MjModel], None] | None = None
 
 
+def port_depth_below_m(sim: "Simulation", site: str) -> float:
+    """[m] how far the port is below `site` along the base z (negative: above it)."""
+    return float(sim.data.site_xpos[sim.model.site(site).id][2] - sim.controller.p_world_port[2])
+
+
 def apply_seed(scene: Scene, model: mujoco.MjModel, seed: int | None) -> None:
     """Lay out `model` (freshly built, not yet simulated) as `seed` says; None: nominal."""
     if scene.prepare is not None:

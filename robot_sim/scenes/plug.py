@@ -3,23 +3,16 @@ y the machine does not know."""
 
 from typing import TYPE_CHECKING
 
-from robot_sim.scenes.base import HOME_TOOL_DOWN, Scene, TaskProgress
+from robot_sim.scenes.base import HOME_TOOL_DOWN, Scene, TaskProgress, port_depth_below_m
 
 if TYPE_CHECKING:
     from robot_sim.sim import Simulation
 
-PRONG_M = 0.016  # prong length: tips this far below the face when the plug is home
 INSERTED_M = 0.015  # fully inserted: within 1 mm of the plug's body meeting the face
 
 
-def prong_depth_m(sim: "Simulation") -> float:
-    """[m] how far the prong tips (the port) are below the outlet's face (negative: above)."""
-    face = sim.data.site_xpos[sim.model.site("outlet_face").id]
-    return float(face[2] - sim.controller.p_world_port[2])
-
-
 def _plug(sim: "Simulation") -> TaskProgress:
-    depth = prong_depth_m(sim)
+    depth = port_depth_below_m(sim, "outlet_face")  # the prong tips below the face
     return TaskProgress(
         "prongs fully inserted (tips >= 15 mm below the face)", depth >= INSERTED_M, depth, INSERTED_M, "m"
     )

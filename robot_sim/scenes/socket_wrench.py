@@ -3,7 +3,7 @@ spring-loaded detent ball into a square socket."""
 
 from typing import TYPE_CHECKING
 
-from robot_sim.scenes.base import HOME_TOOL_DOWN, Scene, TaskProgress
+from robot_sim.scenes.base import HOME_TOOL_DOWN, Scene, TaskProgress, port_depth_below_m
 
 if TYPE_CHECKING:
     from robot_sim.sim import Simulation
@@ -11,14 +11,8 @@ if TYPE_CHECKING:
 INSERTED_M = 0.018  # tip this far below the socket's top: the shank's 20 mm nearly all in
 
 
-def shank_depth_m(sim: "Simulation") -> float:
-    """[m] how far the shank's tip (the port) is below the socket's top (negative: above)."""
-    top = sim.data.site_xpos[sim.model.site("socket_top").id]
-    return float(top[2] - sim.controller.p_world_port[2])
-
-
 def _socket_wrench(sim: "Simulation") -> TaskProgress:
-    depth = shank_depth_m(sim)
+    depth = port_depth_below_m(sim, "socket_top")  # the shank's tip below the socket's top
     return TaskProgress(
         "shank fully inserted (tip >= 18 mm below the socket's top)",
         depth >= INSERTED_M,
