@@ -125,6 +125,9 @@ class TaskProgressModel(BaseModel):
     progress: float | None = Field(description="the measured quantity, in `unit`; null if not finite")
     target: float = Field(description="the value `progress` must reach, in `unit`")
     unit: str = Field(description="unit of `progress` and `target`")
+    at_most: bool = Field(
+        False, description="true: success wants `progress` at or below `target` (an error to shrink)"
+    )
 
 
 class ActiveGainsModel(BaseModel):

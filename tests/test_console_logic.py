@@ -370,3 +370,28 @@ def test_task_progress_is_written_to_the_targets_resolution(
     """On the first cut the bar read "task: 0.0006639 / 5 N": noise digits (and "-0")."""
     task = {"progress": progress, "target": target, "unit": unit, "success": False, "predicate": "p"}
     assert shown + " <span" in _task_html(task)
+
+
+@pytest.mark.parametrize(
+    ("progress", "target", "at_most", "width"),
+    [
+        (15.0, 30.0, False, "50%"),
+        (45.0, 30.0, False, "100%"),
+        (0.025, 0.002, True, "8%"),
+        (0.001, 0.002, True, "100%"),
+    ],
+)
+def test_the_task_bar_fills_toward_success_whichever_way_the_target_lies(
+    progress: float, target: float, at_most: bool, width: str
+) -> None:
+    """Berthing's progress is an error to shrink: 25 mm from the seat is an almost empty bar,
+    not a full one."""
+    task = {
+        "progress": progress,
+        "target": target,
+        "unit": "m",
+        "success": False,
+        "predicate": "p",
+        "at_most": at_most,
+    }
+    assert f"width:{width}" in _task_html(task)

@@ -137,6 +137,16 @@ def _judge(inputs: BarInputs, now: float) -> tuple[float | None, Level]:
     return age, staleness(age, inputs.rtt_s, inputs.link_up)
 
 
+def _fraction_done(progress: float | None, target: float, at_most: bool) -> float:
+    """How full the task's bar is: progress over target, or for an error to shrink (at_most),
+    target over progress."""
+    if progress is None:
+        return 0.0
+    if at_most:
+        return 1.0 if progress <= target else max(0.0, target / progress)
+    return 0.0 if target == 0 else max(0.0, min(1.0, progress / target))
+
+
 def _task_html(task: dict[str, Any] | None) -> str:
     if not task:
         return '<div id="ptwl-task" data-success="" data-progress="">task: unknown</div>'
@@ -144,7 +154,7 @@ def _task_html(task: dict[str, Any] | None) -> str:
     # Three significant digits of the target's size (12.3 / 30 mm, 0.00 / 5 N): no noise digits.
     decimals = max(0, 2 - math.floor(math.log10(abs(target)))) if target else 3
     shown = "—" if progress is None else f"{round(progress, decimals) + 0.0:.{decimals}f}"  # never "-0"
-    fraction = 0.0 if progress is None or target == 0 else max(0.0, min(1.0, progress / target))
+    fraction = _fraction_done(progress, target, bool(task.get("at_most")))
     badge = (
         '<span style="background:#2f9e44;color:white;padding:0 6px;border-radius:4px">SUCCESS</span>'
         if task["success"]

@@ -28,6 +28,7 @@ class TaskProgress:
     progress: float  # the measured quantity, in `unit`
     target: float
     unit: str
+    at_most: bool = False  # success wants `progress` at or below `target` (an error to shrink)
 
 
 @dataclass(frozen=True)

@@ -46,7 +46,12 @@ def _berthing(sim: "Simulation") -> TaskProgress:
     squareness = math.acos(float(np.clip(sled_x @ posts_x, -1.0, 1.0)))
     seated = max(errors) <= SEATED_M and squareness <= SQUARE_RAD
     return TaskProgress(
-        "both clamps seated on their posts (within 2 mm, 1 deg)", seated, max(errors), SEATED_M, "m"
+        "both clamps seated on their posts (within 2 mm, 1 deg)",
+        seated,
+        max(errors),
+        SEATED_M,
+        "m",
+        at_most=True,
     )
 
 
