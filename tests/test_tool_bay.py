@@ -10,7 +10,7 @@ from robot_sim.behaviors import ExitCondition, Gripper, Ptwl, Rwe
 from robot_sim.params import GripperParams, RweParams
 from robot_sim.policies import run_onboard
 from robot_sim.policies import tool_bay as moves
-from robot_sim.scenes.tool_bay import held, lift_m, turn_rad
+from robot_sim.scenes.tool_bay import Bay, held
 from robot_sim.sim import Simulation
 from server.client import RobotClient
 from tests.helpers import ten_seeds
@@ -27,7 +27,7 @@ def on_the_knob(seed: int | None = None) -> Simulation:
 
 
 def lift(sim: Simulation) -> float:
-    return lift_m(sim.model, sim.data)
+    return Bay.of(sim.model).lift_m(sim.data)
 
 
 # -------------------------------------------------------------------------- the gripper
@@ -75,11 +75,11 @@ def test_the_lock_spring_turns_a_released_tool_back_under_the_tabs() -> None:
     sim.run_behavior(Gripper(GripperParams(action="close")))
     turned = sim.run_behavior(Ptwl(moves.turn(-moves.TURN_OPEN_RAD)))
     assert turned.exit is ExitCondition.GOAL_REACHED
-    assert math.degrees(turn_rad(sim.model, sim.data)) > 40.0
+    assert math.degrees(Bay.of(sim.model).turn_rad(sim.data)) > 40.0
     assert 0.3 < turned.final_wrench[5] * -1 < 0.6  # the spring's 0.6 N m/rad, held by the port
     sim.run_behavior(Gripper(OPEN))
     sim.run(1.0)
-    assert abs(math.degrees(turn_rad(sim.model, sim.data))) < 5.0 and lift(sim) < 0.001
+    assert abs(math.degrees(Bay.of(sim.model).turn_rad(sim.data))) < 5.0 and lift(sim) < 0.001
 
 
 def test_a_bay_out_of_reach_fails_stowage_and_is_not_counted() -> None:

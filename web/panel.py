@@ -118,7 +118,8 @@ class Panel:
         )
         self.stiffness_info = gui.add_html(self._stiffness_html(), order=FORM_ORDER + 0.4)
         self.stiffness.on_update(lambda _: self._show_stiffness())
-        # Per request type, in one place: its Send button, its check line, how it is made.
+        # Per request type, in one place: its Send button, its check line, how it is made, the
+        # inputs it is made from.
         self.sends = {
             "ptwl": self.send_ptwl,
             "rwe": self.send_rwe,
@@ -140,6 +141,36 @@ class Panel:
             "state_machine": self.task_params,
             "gripper": self.gripper_params,
         }
+        self._fields: dict[str, list[Any]] = {
+            "ptwl": [
+                self.translation,
+                self.rotation,
+                self.frame,
+                self.duration,
+                self.force_threshold,
+                self.torque_threshold,
+                self.position_tolerance,
+                self.orientation_tolerance,
+                self.watchdog_auto,
+                self.watchdog,
+                self.stiffness,
+            ],
+            "rwe": [*self.rwe_axes.values(), self.rwe_duration],
+            "dither": [
+                self.dither_preset,
+                self.dither_mode,
+                self.dither_direction,
+                self.dither_axis,
+                self.dither_amplitude,
+                self.dither_frequency,
+                self.dither_travel,
+                self.dither_duration,
+                self.dither_force_threshold,
+                self.dither_torque_threshold,
+            ],
+            "state_machine": [self.task],
+            "gripper": [self.gripper_action],
+        }
         self._valid = dict.fromkeys(self.sends, True)
 
     @property
@@ -152,38 +183,7 @@ class Panel:
 
     def fields(self, behavior: str) -> list[Any]:
         """The inputs whose values make up a behavior's request."""
-        if behavior == "ptwl":
-            return [
-                self.translation,
-                self.rotation,
-                self.frame,
-                self.duration,
-                self.force_threshold,
-                self.torque_threshold,
-                self.position_tolerance,
-                self.orientation_tolerance,
-                self.watchdog_auto,
-                self.watchdog,
-                self.stiffness,
-            ]
-        if behavior == "rwe":
-            return [*self.rwe_axes.values(), self.rwe_duration]
-        if behavior == "state_machine":
-            return [self.task]
-        if behavior == "gripper":
-            return [self.gripper_action]
-        return [
-            self.dither_preset,
-            self.dither_mode,
-            self.dither_direction,
-            self.dither_axis,
-            self.dither_amplitude,
-            self.dither_frequency,
-            self.dither_travel,
-            self.dither_duration,
-            self.dither_force_threshold,
-            self.dither_torque_threshold,
-        ]
+        return self._fields[behavior]
 
     def show_control(self, mine: bool, holder: str | None) -> None:
         """Enable sending only for the client that holds control; say who does."""

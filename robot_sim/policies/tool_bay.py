@@ -36,6 +36,12 @@ def turn(about_tool_z_rad: float) -> PtwlParams:
     )
 
 
-def turned_deg(home: Pose, report: BehaviorReport) -> float:
+def turned_open_rad(home: Pose, report: BehaviorReport) -> float:
     """How far the port has turned the lock open (positive) since the start."""
-    return -math.degrees(twist_about_tool_axis_rad(home, report.final_port))
+    return -twist_about_tool_axis_rad(home, report.final_port)
+
+
+def lock_turned(home: Pose, report: BehaviorReport) -> tuple[bool, str]:
+    """(the lock is open, how far it turned in words), after an unlock turn."""
+    turned = turned_open_rad(home, report)
+    return turned >= OPENED_RAD, f"{math.degrees(turned):.0f} deg"

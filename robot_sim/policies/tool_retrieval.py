@@ -15,7 +15,7 @@ behavior is used to finely adjust the attractor position and further eliminate f
 
 from robot_sim.behaviors import BehaviorReport, ExitCondition
 from robot_sim.policies.base import Decision, Finish, StagedPolicy, Step
-from robot_sim.policies.tool_bay import CLOSE, OPENED_RAD, RELIEVE, TURN_OPEN_RAD, down, turn, turned_deg, up
+from robot_sim.policies.tool_bay import CLOSE, RELIEVE, TURN_OPEN_RAD, down, lock_turned, turn, up
 from robot_sim.policies.travel import travel_down_tool_axis_m
 
 APPROACH = down(0.04)
@@ -46,10 +46,10 @@ class ToolRetrieval(StagedPolicy):
                 "unlock", turn(-TURN_OPEN_RAD), "turn the tool 0.8 rad: its legs out from under the tabs"
             )
         if self.last == "unlock":
-            turned = turned_deg(self.start, report)
-            if turned < OPENED_RAD * 57.29578:
-                return Finish(False, f"the lock turned only {turned:.0f} deg ({report.exit})")
-            return self.stage("extract", EXTRACT, f"lock open ({turned:.0f} deg): lift the tool out")
+            opened, turned = lock_turned(self.start, report)
+            if not opened:
+                return Finish(False, f"the lock turned only {turned} ({report.exit})")
+            return self.stage("extract", EXTRACT, f"lock open ({turned}): lift the tool out")
         if report.exit is ExitCondition.GOAL_REACHED:
             return Finish(True, "the tool is out of the bay, in the gripper")
         return Finish(False, f"the tool would not come out ({report.exit} at {report.peak_force:.1f} N)")

@@ -15,7 +15,7 @@ rotating the lock closed. The gripper then releases the tool before leaving the 
 
 from robot_sim.behaviors import BehaviorReport, ExitCondition
 from robot_sim.policies.base import Decision, Finish, StagedPolicy, Step
-from robot_sim.policies.tool_bay import OPEN, OPENED_RAD, TURN_OPEN_RAD, down, turn, turned_deg, up
+from robot_sim.policies.tool_bay import OPEN, TURN_OPEN_RAD, down, lock_turned, turn, turned_open_rad, up
 from robot_sim.policies.travel import travel_down_tool_axis_m
 
 APPROACH = down(0.03)
@@ -44,18 +44,19 @@ class ToolStowage(StagedPolicy):
                 f"on the upper stop ({depth}, {report.exit}): turn the lock open",
             )
         if self.last == "unlock":
-            turned = turned_deg(self.start, report)
-            if turned < OPENED_RAD * 57.29578:
-                return Finish(False, f"the lock turned only {turned:.0f} deg ({report.exit})")
-            return self.stage("bottom", down(0.03), f"lock open ({turned:.0f} deg): bottom out")
+            opened, turned = lock_turned(self.start, report)
+            if not opened:
+                return Finish(False, f"the lock turned only {turned} ({report.exit})")
+            return self.stage("bottom", down(0.03), f"lock open ({turned}): bottom out")
         if self.last == "bottom":
             if depth_m < BOTTOM_M:
                 return Finish(False, f"stopped short of the floor ({depth}, {report.exit})")
-            turned = turned_deg(self.start, report)
-            return self.stage("lock", turn(turned / 57.29578), f"bottomed ({depth}): turn the lock shut")
+            return self.stage(
+                "lock", turn(turned_open_rad(self.start, report)), f"bottomed ({depth}): turn the lock shut"
+            )
         if self.last == "lock":
             return self.stage(
-                "release", OPEN, f"locked ({turned_deg(self.start, report):.0f} deg): open the gripper"
+                "release", OPEN, f"locked ({lock_turned(self.start, report)[1]}): open the gripper"
             )
         if self.last == "release":
             return self.stage("leave", up(0.03), f"{report.detail}: leave the bay")

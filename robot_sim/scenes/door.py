@@ -32,10 +32,11 @@ def _latch(model: mujoco.MjModel) -> Callable[[mujoco.MjData], None]:
     knob let back, it catches again (the `latch` equality holds the hinge at 0)."""
     latch = model.equality("latch").id
     hold_at_start = held_from_start("grasp")(model)
+    knob_adr, door_adr = (model.jnt_qposadr[model.joint(j).id] for j in ("knob_turn", "door_hinge"))
 
     def tick(data: mujoco.MjData) -> None:
         hold_at_start(data)
-        knob, door = _angle(model, data, "knob_turn"), _angle(model, data, "door_hinge")
+        knob, door = data.qpos[knob_adr], data.qpos[door_adr]
         if data.eq_active[latch] and knob >= RELEASE_RAD:
             data.eq_active[latch] = 0
             data.userdata[RELEASED] = 1.0

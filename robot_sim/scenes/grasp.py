@@ -34,7 +34,7 @@ def actuate(
     held = model.body(model.eq_obj2id[weld]).name
     if action == "open":
         was = bool(data.eq_active[weld])
-        release(data, weld)
+        data.eq_active[weld] = 0
         return f"released {held}" if was else "opened (holding nothing)"
     if data.eq_active[weld]:
         return f"already holding {held}"
@@ -46,32 +46,40 @@ def actuate(
     if off_m > spec.capture_m or tilt_rad > spec.capture_rad:
         off = f"{1000 * off_m:.1f} mm, {math.degrees(tilt_rad):.0f} deg"
         return f"closed on nothing ({held}'s grasp point {off} off)"
-    # The jaws' grasp: the grasp site on the port. relpose = (tool <- port) (site <- body2).
+    hold(model, data, weld, jaws_relpose(model, spec, port_site))
+    return f"holding {held} (caught {1000 * off_m:.1f} mm off)"
+
+
+def jaws_relpose(model: mujoco.MjModel, spec: GripperSpec, port_site: int) -> np.ndarray:
+    """(7,) the pose the jaws hold a part in, its body in the tool's frame: the grasp site on the
+    port. (tool <- port) (grasp site <- part)."""
+    site = model.site(spec.grasp_site).id
     site_inv_pos, site_inv_quat = np.zeros(3), np.zeros(4)
     mujoco.mju_negPose(site_inv_pos, site_inv_quat, model.site_pos[site], model.site_quat[site])
     pos, quat = np.zeros(3), np.zeros(4)
     mujoco.mju_mulPose(
         pos, quat, model.site_pos[port_site], model.site_quat[port_site], site_inv_pos, site_inv_quat
     )
-    model.eq_data[weld, RELPOSE] = np.concatenate([pos, quat])
-    data.eq_active[weld] = 1
-    return f"holding {held} (caught {1000 * off_m:.1f} mm off)"
+    return np.concatenate([pos, quat])
 
 
-def grasp(model: mujoco.MjModel, data: mujoco.MjData, weld: int) -> None:
-    """Switch `weld` on, holding its body2 where it is now relative to its body1."""
-    body1, body2 = model.eq_obj1id[weld], model.eq_obj2id[weld]
-    q1_inv = np.zeros(4)
+def hold(model: mujoco.MjModel, data: mujoco.MjData | None, weld: int, relpose: np.ndarray) -> None:
+    """Switch `weld` on with `relpose` (body2 in body1's frame): in `data`, or from the start
+    (the model's initial state) when `data` is None."""
+    model.eq_data[weld, RELPOSE] = relpose
+    if data is None:
+        model.eq_active0[weld] = 1
+    else:
+        data.eq_active[weld] = 1
+
+
+def as_it_is(data: mujoco.MjData, body1: int, body2: int) -> np.ndarray:
+    """(7,) body2's pose in body1's frame now."""
+    q1_inv, pos, quat = np.zeros(4), np.zeros(3), np.zeros(4)
     mujoco.mju_negQuat(q1_inv, data.xquat[body1])
-    pos, quat = np.zeros(3), np.zeros(4)
     mujoco.mju_rotVecQuat(pos, data.xpos[body2] - data.xpos[body1], q1_inv)
     mujoco.mju_mulQuat(quat, q1_inv, data.xquat[body2])
-    model.eq_data[weld, RELPOSE] = np.concatenate([pos, quat])
-    data.eq_active[weld] = 1
-
-
-def release(data: mujoco.MjData, weld: int) -> None:
-    data.eq_active[weld] = 0
+    return np.concatenate([pos, quat])
 
 
 def held_from_start(weld_name: str) -> Callable[[mujoco.MjModel], Callable[[mujoco.MjData], None]]:
@@ -85,7 +93,7 @@ def held_from_start(weld_name: str) -> Callable[[mujoco.MjModel], Callable[[mujo
         def tick(data: mujoco.MjData) -> None:
             nonlocal started
             if not started:
-                grasp(model, data, weld)
+                hold(model, data, weld, as_it_is(data, model.eq_obj1id[weld], model.eq_obj2id[weld]))
                 started = True
 
         return tick

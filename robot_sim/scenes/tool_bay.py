@@ -3,6 +3,7 @@ spring-loaded bayonet lock, the gripper that catches the tool, and what the bay 
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import mujoco
@@ -21,33 +22,43 @@ BOTTOMED_M = 0.001
 GRIPPER = GripperSpec(weld="grasp", grasp_site="tool_grasp")
 
 
-def lift_m(model: mujoco.MjModel, data: mujoco.MjData) -> float:
-    """[m] the tool's foot above the bay's floor."""
-    return float(
-        data.site_xpos[model.site("tool_base").id][2] - data.site_xpos[model.site("bay_floor").id][2]
-    )
+@dataclass(frozen=True)
+class Bay:
+    """The bay and its tool in a loaded model (ids looked up once: the lock runs every tick)."""
 
+    floor: int  # site
+    foot: int  # site: the tool's foot
+    bay: int  # body
+    tool: int  # body
 
-def turn_rad(model: mujoco.MjModel, data: mujoco.MjData) -> float:
-    """The tool's turn about the vertical from its locked angle (the bay's axes), (-pi, pi]."""
-    R_bay_tool = data.xmat[model.body("bay").id].reshape(3, 3).T @ data.xmat[
-        model.body("stow_tool").id
-    ].reshape(3, 3)
-    return float(math.atan2(R_bay_tool[1, 0], R_bay_tool[0, 0]))
+    @classmethod
+    def of(cls, model: mujoco.MjModel) -> "Bay":
+        site, body = model.site, model.body
+        return cls(site("bay_floor").id, site("tool_base").id, body("bay").id, body("stow_tool").id)
+
+    def lift_m(self, data: mujoco.MjData) -> float:
+        """[m] the tool's foot above the bay's floor."""
+        return float(data.site_xpos[self.foot][2] - data.site_xpos[self.floor][2])
+
+    def turn_rad(self, data: mujoco.MjData) -> float:
+        """The tool's turn about the vertical from its locked angle (the bay's axes), (-pi, pi]."""
+        R_bay_tool = data.xmat[self.bay].reshape(3, 3).T @ data.xmat[self.tool].reshape(3, 3)
+        return float(math.atan2(R_bay_tool[1, 0], R_bay_tool[0, 0]))
 
 
 def lock_spring(model: mujoco.MjModel) -> Callable[[mujoco.MjData], None]:
     """The lock's spring turns the legs back under the tabs while they are in the lock: a torque
     about the vertical on the tool, proportional to its turn (and a little damping)."""
-    tool = model.body("stow_tool").id
-    dof = model.jnt_dofadr[model.body_jntadr[tool]]  # freejoint: 3 linear, then 3 angular (local)
+    bay = Bay.of(model)
+    dof = model.jnt_dofadr[model.body_jntadr[bay.tool]]  # freejoint: 3 linear, then 3 angular (local)
+    torque = np.zeros(3)
 
     def tick(data: mujoco.MjData) -> None:
-        torque = 0.0
-        if lift_m(model, data) < IN_LOCK_M:
-            spin = float(data.xmat[tool].reshape(3, 3)[2] @ data.qvel[dof + 3 : dof + 6])  # world z rate
-            torque = -LOCK_SPRING_NM_PER_RAD * turn_rad(model, data) - LOCK_DAMPING_NMS_PER_RAD * spin
-        data.xfrc_applied[tool, 3:6] = np.array([0.0, 0.0, torque])
+        torque[2] = 0.0
+        if bay.lift_m(data) < IN_LOCK_M:
+            spin = float(data.xmat[bay.tool].reshape(3, 3)[2] @ data.qvel[dof + 3 : dof + 6])  # world z rate
+            torque[2] = -LOCK_SPRING_NM_PER_RAD * bay.turn_rad(data) - LOCK_DAMPING_NMS_PER_RAD * spin
+        data.xfrc_applied[bay.tool, 3:6] = torque
 
     return tick
 

@@ -3,20 +3,19 @@
 from typing import TYPE_CHECKING
 
 import mujoco
-import numpy as np
 
+from robot_sim.model import ARM_PREFIX, TOOL_PREFIX
 from robot_sim.scenes.base import HOME_TOOL_DOWN, Scene, TaskProgress
-from robot_sim.scenes.grasp import RELPOSE
+from robot_sim.scenes.grasp import hold, jaws_relpose
 from robot_sim.scenes.tool_bay import (
     BOTTOMED_M,
     GRIPPER,
     LOCKED_RAD,
+    Bay,
     bay_moved,
     held,
-    lift_m,
     lock_spring,
     tool_qpos,
-    turn_rad,
 )
 
 if TYPE_CHECKING:
@@ -29,15 +28,14 @@ def _in_the_gripper(model: mujoco.MjModel) -> None:
     """The tool lifted to the gripper and held (the grasp weld on from the start): its knob's
     grasp point on the port, axes matched, at the home pose."""
     model.qpos0[tool_qpos(model) + 2] += HELD_UP_M
-    weld = model.equality(GRIPPER.weld).id
-    # tool <- port (the port 0.1 m down the gripper's axis) <- grasp site (0.07 m up the knob, z down)
-    model.eq_data[weld, RELPOSE] = np.array([0.0, 0.0, 0.170, 0.0, 0.0, 1.0, 0.0])
-    model.eq_active0[weld] = 1
+    port = model.site(ARM_PREFIX + TOOL_PREFIX + "port").id
+    hold(model, None, model.equality(GRIPPER.weld).id, jaws_relpose(model, GRIPPER, port))
 
 
 def _stowed(sim: "Simulation") -> TaskProgress:
     m, d = sim.model, sim.data
-    lift, turn = lift_m(m, d), turn_rad(m, d)
+    bay = Bay.of(m)
+    lift, turn = bay.lift_m(d), bay.turn_rad(d)
     stowed = lift <= BOTTOMED_M and abs(turn) <= LOCKED_RAD and not held(sim)
     return TaskProgress(
         "tool bottomed in the bay, locked (legs under the tabs), gripper released",
@@ -45,6 +43,7 @@ def _stowed(sim: "Simulation") -> TaskProgress:
         lift,
         BOTTOMED_M,
         "m",
+        at_most=True,
     )
 
 
