@@ -92,6 +92,14 @@ def test_without_turning_the_knob_the_latch_holds_the_door_shut() -> None:
     assert abs(door_angle_rad(sim)) < math.radians(1.0) and not sim.task().success
 
 
+def test_a_knob_turned_short_of_20_degrees_leaves_the_door_latched() -> None:
+    """The latch's threshold: 0.2 rad (11 deg) of knob turn, then the same swing: still shut."""
+    sim = Simulation("door", seed=2)
+    sim.run_behavior(Ptwl(PtwlParams(rotation=[0.0, 0.0, 0.2], duration=2.0, preset="medium")))
+    sim.run_behavior(Ptwl(door.swing(0.95, 3.0)))
+    assert abs(door_angle_rad(sim)) < math.radians(1.0) and not sim.task().success
+
+
 def test_soft_translation_follows_the_arc_stiff_translation_fights_it() -> None:
     """The paper's point: with `hinge` the port follows the hinge's arc and the door opens past
     45 deg at a few newtons; with `medium` (2000 N/m) the same rotation meets the arc's constraint

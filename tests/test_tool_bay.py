@@ -82,6 +82,23 @@ def test_the_lock_spring_turns_a_released_tool_back_under_the_tabs() -> None:
     assert abs(math.degrees(Bay.of(sim.model).turn_rad(sim.data))) < 5.0 and lift(sim) < 0.001
 
 
+def test_a_stowed_and_locked_tool_still_in_the_gripper_is_not_stowed() -> None:
+    """The predicate's last clause: bottomed and locked is not enough until the jaws let go."""
+    sim = Simulation("tool_stowage")
+    for params in (
+        moves.down(0.03),
+        moves.turn(-moves.TURN_OPEN_RAD),
+        moves.down(0.03),
+        moves.turn(moves.TURN_OPEN_RAD),
+    ):
+        sim.run_behavior(Ptwl(params))
+    bay = Bay.of(sim.model)
+    assert bay.lift_m(sim.data) < 0.001 and abs(bay.turn_rad(sim.data)) < 0.15 and held(sim)
+    assert not sim.task().success
+    sim.run_behavior(Gripper(OPEN))
+    assert sim.task().success
+
+
 def test_a_bay_out_of_reach_fails_stowage_and_is_not_counted() -> None:
     """A deliberately failed run: the bay 12 mm off, the tool lands on its rim."""
     sim = Simulation("tool_stowage")
