@@ -22,13 +22,11 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from robot_sim.behaviors import BehaviorParams, BehaviorReport
+from robot_sim.behaviors import BehaviorReport
 from robot_sim.behaviors.base import Pose
-from robot_sim.params import StateMachineParams
+from robot_sim.executor import CommandParams
 from robot_sim.policies.run import StepRecord
 from server.models import CommandStatus, MachineStepModel, PoseModel
-
-CommandParams = BehaviorParams | StateMachineParams
 
 
 class QueueFullError(Exception):

@@ -15,12 +15,10 @@ from concurrent.futures import Future
 from dataclasses import dataclass
 from typing import Any
 
-from robot_sim.behaviors import BehaviorReport, behavior_for
-from robot_sim.behaviors.base import Pose
+from robot_sim.behaviors import BehaviorReport
+from robot_sim.executor import CommandExecutor
 from robot_sim.gains import Gains
 from robot_sim.geometry import body_poses, moving_bodies
-from robot_sim.params import StateMachineParams
-from robot_sim.policies import Machine, policy_for
 from robot_sim.scenes import TaskProgress, get_scene
 from robot_sim.sim import Simulation
 from server.commands import CommandBook, CommandRecord
@@ -47,7 +45,7 @@ class SimRunner:
         get_scene(scene)  # fail early, listing the scenes
         self.sim = Simulation(scene, seed)
         self._moving = moving_bodies(self.sim.model)
-        self._machine: Machine | None = None  # the running state machine command's, if any
+        self._executor = CommandExecutor(self.sim)
         self.book = book
         self._publish = publish
         self._period = 1.0 / telemetry_hz
@@ -126,17 +124,7 @@ class SimRunner:
                 request.reply.set_exception(err)
 
     def _start_next(self) -> None:
-        def start(record: CommandRecord) -> Pose | None:
-            params = record.params
-            if isinstance(params, StateMachineParams):  # onboard: each next step at once
-                self._machine = Machine(policy_for(params.task, params.overrides))
-                self.sim.start(behavior_for(self._machine.start(self.sim.state().port).params))
-                return None
-            behavior = behavior_for(params)
-            self.sim.start(behavior)
-            return behavior.goal_pose()
-
-        self.book.start_next(start)
+        self.book.start_next(lambda record: self._executor.start(record.params))
 
     def _advance(self) -> None:
         faults_before = self.sim.fault_count
@@ -147,19 +135,12 @@ class SimRunner:
             self._next_telemetry = 0.0
 
     def _command_done(self, report: BehaviorReport) -> None:
-        """A behavior ended: the command's end, or a state machine's step (STOP and faults end
-        the machine too: it is told, and ends `aborted` or `fault`)."""
-        machine = self._machine
-        if machine is None:
-            self.book.finish(report)  # the book announces it
-            return
-        step = machine.advance(report)
-        self.book.step_done(machine.steps[-1])
-        if step is not None:
-            self.sim.start(behavior_for(step.params))
-            return
-        self._machine = None
-        self.book.finish(machine.report())
+        """A behavior ended: the command's end, or a state machine's step (executor.py)."""
+        ended = self._executor.behavior_ended(report)
+        if ended.step is not None:
+            self.book.step_done(ended.step)
+        if ended.command is not None:
+            self.book.finish(ended.command)  # the book announces it
 
     # ----------------------------------------------------------------- telemetry
     def _state(self) -> dict[str, Any]:

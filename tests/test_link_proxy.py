@@ -38,9 +38,12 @@ async def exchange(proxy_url: str, seconds: float, send_hz: float) -> list[tuple
     async with websockets.connect(ws(proxy_url), ping_interval=None) as conn:
 
         async def send() -> None:
+            # On a schedule, not sleep(1/hz) after each send: that sleep overshoots by a timer
+            # slice, and the exchange sent ~half the rate for twice the time.
+            start = time.monotonic()
             for i in range(int(seconds * send_hz)):
                 await conn.send(json.dumps({"client_seq": i}))
-                await asyncio.sleep(1.0 / send_hz)
+                await asyncio.sleep(max(0.0, start + (i + 1) / send_hz - time.monotonic()))
 
         async def receive() -> None:
             end = time.monotonic() + seconds
@@ -78,10 +81,16 @@ def check_record(records: list[dict], direction: str, n_min: int) -> list[dict]:
         assert r["release"] >= scheduled, r  # never early
         lateness.append(r["release"] - scheduled)
         previous_release = r["release"]
-    lateness.sort()
-    assert lateness[len(lateness) // 2] <= 0.001
-    assert lateness[int(0.99 * len(lateness))] <= HOLD_TOLERANCE_S
+    assert_mostly_on_time(lateness)
     return rows
+
+
+def assert_mostly_on_time(lateness_s: list[float]) -> None:
+    """Never early; the median within 1 ms and 99 % within HOLD_TOLERANCE_S (see check_record)."""
+    ordered = sorted(lateness_s)
+    assert ordered[0] >= -1e-9, ordered[0]
+    assert ordered[len(ordered) // 2] <= 0.001
+    assert ordered[int(0.99 * len(ordered))] <= HOLD_TOLERANCE_S
 
 
 def test_one_second_each_way_200_messages_per_second(fast_server: ServiceProcess, tmp_path: Path) -> None:
@@ -140,9 +149,11 @@ def test_jitter_keeps_order_and_reports_realized_delay(fast_server: ServiceProce
     replay = sim.released
     real = [r for r in records if r["direction"] == "downlink" and r["release"]]
     assert len(replay) == len(real)
-    for (t_sim, e), r in zip(replay, real, strict=True):
+    for (_, e), r in zip(replay, real, strict=True):
         assert e.configured_delay == pytest.approx(r["configured_delay"], abs=1e-12)
-        assert r["release"] - t_sim == pytest.approx(0.0, abs=HOLD_TOLERANCE_S)
+    # A host stall makes a real release late and those queued behind it too (never before the
+    # one ahead): judged like check_record's lateness, against the simulated schedule.
+    assert_mostly_on_time([r["release"] - t_sim for (t_sim, _), r in zip(replay, real, strict=True)])
 
 
 def test_http_round_trip_takes_uplink_plus_downlink_and_control_is_immediate(
