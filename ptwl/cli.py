@@ -19,6 +19,7 @@ import sys
 from collections.abc import Generator
 from pathlib import Path
 
+from ptwl.sweep_cli import add_sweep_parser
 from ptwl.task_cli import add_task_parser
 from robot_sim.behaviors import Behavior, BehaviorReport, behavior_for
 from robot_sim.behaviors.ptwl import Ptwl
@@ -241,6 +242,7 @@ def build_parser() -> argparse.ArgumentParser:
     _access_flags(proxy)
     proxy.set_defaults(func=cmd_proxy)
     add_task_parser(sub)
+    add_sweep_parser(sub)
     sub.add_parser("scenes", help="list scenes").set_defaults(func=cmd_scenes)
     sub.add_parser("presets", help="print stiffness and dither presets").set_defaults(func=cmd_presets)
     return parser

@@ -9,13 +9,13 @@ import argparse
 import itertools
 import json
 import os
-import statistics
 import sys
 from concurrent.futures import ProcessPoolExecutor
 
 from tqdm import tqdm
 
 from robot_sim.policies import POLICIES, TaskRun, policy_for, run_onboard
+from robot_sim.policies.run import paper_rows
 from robot_sim.scenes import get_scene
 
 
@@ -67,28 +67,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 def bench_table(task: str, runs: list[TaskRun]) -> str:
     """The paper's Tables 1-3 layout: success, then the mean of each figure over the trials."""
-    metrics = [r.as_dict() for r in runs]
-
-    def mean(key: str) -> float:
-        return statistics.fmean(m[key] for m in metrics)
-
-    def mean_ptwl(exit_name: str) -> float:
-        return statistics.fmean(m["ptwl"][exit_name] for m in metrics)
-
-    rows = [
-        ("Trials", f"{len(runs)}"),
-        ("Success", f"{sum(r.success for r in runs)} / {len(runs)}"),
-        ("Max force [N]", f"{mean('max_force_n'):.1f}"),
-        ("Max torque [N m]", f"{mean('max_torque_nm'):.2f}"),
-        ("Run time [s]", f"{mean('run_time_s'):.1f}"),
-        ("Number of behaviors", f"{mean('behaviors'):.2f}"),
-        ("RWE", f"{mean('rwe'):.2f}"),
-        ("PTWL (timeout)", f"{mean_ptwl('timeout'):.2f}"),
-        ("PTWL (goal reached)", f"{mean_ptwl('goal_reached'):.2f}"),
-        ("PTWL (wrench breach)", f"{mean_ptwl('wrench_breach'):.2f}"),
-        ("Dither", f"{mean('dither'):.2f}"),
-        ("Gripper (not a behavior)", f"{mean('gripper'):.2f}"),
-    ]
+    rows = paper_rows([r.as_dict() for r in runs], [r.success for r in runs])
     lines = [f"| {task} | mean over trials |", "|---|---|"]
     return "\n".join(lines + [f"| {name} | {value} |" for name, value in rows])
 

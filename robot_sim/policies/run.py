@@ -1,6 +1,7 @@
 """Driving a policy: the one loop the headless runner and the server's `state_machine` command
 share, and the paper's per-trial figures (Tables 1-3) from its steps."""
 
+import statistics
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -108,3 +109,29 @@ def trial_metrics(steps: list[StepRecord]) -> dict[str, Any]:
             for exit in (ExitCondition.TIMEOUT, ExitCondition.GOAL_REACHED, ExitCondition.WRENCH_BREACH)
         },
     }
+
+
+def paper_rows(metrics: list[dict[str, Any]], successes: list[bool]) -> list[tuple[str, str]]:
+    """The paper's Tables 1-3 layout over trials (each `metrics` in trial_metrics' shape):
+    success, then the mean of each figure."""
+
+    def mean(key: str) -> float:
+        return statistics.fmean(m[key] for m in metrics)
+
+    def mean_ptwl(exit_name: str) -> float:
+        return statistics.fmean(m["ptwl"][exit_name] for m in metrics)
+
+    return [
+        ("Trials", f"{len(metrics)}"),
+        ("Success", f"{sum(successes)} / {len(successes)}"),
+        ("Max force [N]", f"{mean('max_force_n'):.1f}"),
+        ("Max torque [N m]", f"{mean('max_torque_nm'):.2f}"),
+        ("Run time [s]", f"{mean('run_time_s'):.1f}"),
+        ("Number of behaviors", f"{mean('behaviors'):.2f}"),
+        ("RWE", f"{mean('rwe'):.2f}"),
+        ("PTWL (timeout)", f"{mean_ptwl('timeout'):.2f}"),
+        ("PTWL (goal reached)", f"{mean_ptwl('goal_reached'):.2f}"),
+        ("PTWL (wrench breach)", f"{mean_ptwl('wrench_breach'):.2f}"),
+        ("Dither", f"{mean('dither'):.2f}"),
+        ("Gripper (not a behavior)", f"{mean('gripper'):.2f}"),
+    ]

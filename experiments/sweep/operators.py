@@ -1,0 +1,167 @@
+"""The two operators of a sweep, as a person at the ground station would act.
+
+`ground`: runs the task's policy on the ground. It sends one behavior, waits for its report to
+come down the link, thinks (a seeded draw), and sends the next: Ferrell's move-and-wait.
+`onboard`: sends one `state_machine` command and waits for its delayed completion.
+
+Neither holds a clock or a socket: every call gets `now` [s], and what an operator wants sent
+up the link comes back as a list of requests; `wake_at` says when it next wants to act if
+nothing arrives. A lost POST or event is handled as an operator would: once the report is
+overdue, ask for the command's status (GET, by its tag); if the robot never got it, send it
+again. Nothing waits forever: every wait has a deadline that leads to a question.
+"""
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+
+from experiments.sweep.robot import Accepted, Done, Post, Query, Reply, Request, Status
+from experiments.sweep.spec import TrialSpec
+from robot_sim.behaviors import BehaviorReport, Pose
+from robot_sim.executor import CommandParams
+from robot_sim.params import GripperParams, RweParams, StateMachineParams
+from robot_sim.policies import Machine, policy_for
+
+PATIENCE_S = 2.0  # [s] past a behavior's latest possible end (and the round trip) before asking
+POLL_S = 10.0  # [s] between questions about a state machine, whose length nobody knows ahead
+THINK_SPREAD = (0.5, 1.5)  # a think time is uniform in this range times the mean
+
+
+def latest_end_s(params: CommandParams) -> float | None:
+    """[s] from start, the longest a behavior can run (its watchdog); None for a state machine."""
+    if isinstance(params, StateMachineParams):
+        return None
+    if isinstance(params, RweParams | GripperParams):
+        return params.duration
+    assert params.watchdog is not None  # PTWL and Dither fill it in
+    return params.watchdog
+
+
+@dataclass
+class Pending:
+    tag: str
+    params: CommandParams
+    deadline_s: float  # when to ask about it if nothing has come down
+
+
+class Operator(ABC):
+    def __init__(self, spec: TrialSpec) -> None:
+        self.spec = spec
+        self.commands_sent = 0  # POSTs, a resend included
+        self.wait_cycles = 0  # commands waited for (move-and-wait cycles)
+        self.requeries = 0  # GETs after a report was overdue
+        self.think_s = 0.0  # [s] thought in total
+        self.pending: Pending | None = None
+        self.end: str | None = None  # how the task ended, as the operator learned it
+        self.why = ""
+        self.finished_at_s: float | None = None  # [s] when the operator learned it
+        self._next: tuple[float, CommandParams] | None = None  # a command to send once thought
+        self._sent = 0
+
+    # ------------------------------------------------------------------ the interface
+    @abstractmethod
+    def begin(self, now: float, port: Pose) -> list[Request]:
+        """The trial starts; `port` is the latest telemetry (the robot at rest, before t = 0)."""
+
+    @abstractmethod
+    def _ended(self, now: float, report: BehaviorReport) -> None:
+        """The pending command's report came down."""
+
+    @property
+    def wake_at(self) -> float | None:
+        times = [t for t in (self._next[0] if self._next else None, self._deadline()) if t is not None]
+        return min(times) if times else None
+
+    def on_message(self, now: float, message: Reply | Done) -> list[Request]:
+        pending = self.pending
+        if pending is None or message.tag != pending.tag or isinstance(message, Accepted):
+            return []  # stale (an answer to an earlier question), or only an acknowledgement
+        if isinstance(message, Done):
+            self._report(now, message.report)
+            return []
+        assert isinstance(message, Status)
+        if message.report is not None:
+            self._report(now, message.report)
+            return []
+        if message.known:  # still queued or running: ask again later
+            pending.deadline_s = now + self._patience(pending.params)
+            return []
+        return [self._post(now, pending.params, resend=True)]  # the POST never arrived
+
+    def on_wake(self, now: float) -> list[Request]:
+        if self._next is not None and self._next[0] <= now:
+            params = self._next[1]
+            self._next = None
+            return [self._post(now, params)]
+        pending = self.pending
+        if pending is not None and pending.deadline_s <= now:
+            self.requeries += 1
+            pending.deadline_s = now + self.spec.rtt_s + PATIENCE_S
+            return [Query(pending.tag)]
+        return []
+
+    @property
+    def finished(self) -> bool:
+        return self.finished_at_s is not None
+
+    # ---------------------------------------------------------------------- helpers
+    def _deadline(self) -> float | None:
+        return self.pending.deadline_s if self.pending is not None else None
+
+    def _patience(self, params: CommandParams) -> float:
+        latest = latest_end_s(params)
+        return self.spec.rtt_s + (POLL_S if latest is None else latest + PATIENCE_S)
+
+    def _post(self, now: float, params: CommandParams, resend: bool = False) -> Post:
+        if resend:
+            assert self.pending is not None
+            tag = self.pending.tag  # the robot runs a tag once, however often it arrives
+        else:
+            self._sent += 1
+            self.wait_cycles += 1
+            tag = f"{self.spec.operator}-{self._sent}"
+        self.commands_sent += 1
+        self.pending = Pending(tag, params, now + self._patience(params))
+        return Post(tag, params)
+
+    def _report(self, now: float, report: BehaviorReport) -> None:
+        self.pending = None
+        self._ended(now, report)
+
+    def _finish(self, now: float, end: str, why: str) -> None:
+        self.end, self.why, self.finished_at_s = end, why, now
+
+
+class GroundOperator(Operator):
+    """The task's policy on the ground: one behavior per round trip, with think time."""
+
+    def __init__(self, spec: TrialSpec) -> None:
+        super().__init__(spec)
+        self.machine = Machine(policy_for(spec.task))
+        self._think = spec.rng("think")
+
+    def begin(self, now: float, port: Pose) -> list[Request]:
+        return [self._post(now, self.machine.start(port).params)]
+
+    def _ended(self, now: float, report: BehaviorReport) -> None:
+        step = self.machine.advance(report)
+        if step is None:
+            assert self.machine.exit is not None and self.machine.finish is not None
+            self._finish(now, self.machine.exit.value, self.machine.finish.why)
+            return
+        think = self._think.uniform(*THINK_SPREAD) * self.spec.think_s
+        self.think_s += think
+        self._next = (now + think, step.params)
+
+
+class OnboardOperator(Operator):
+    """One state-machine command; the robot runs each next step at once."""
+
+    def begin(self, now: float, port: Pose) -> list[Request]:
+        return [self._post(now, StateMachineParams(task=self.spec.task))]
+
+    def _ended(self, now: float, report: BehaviorReport) -> None:
+        self._finish(now, report.exit.value, report.detail)
+
+
+def operator_for(spec: TrialSpec) -> Operator:
+    return GroundOperator(spec) if spec.operator == "ground" else OnboardOperator(spec)

@@ -1,0 +1,159 @@
+"""report.md and its plots (matplotlib, PNG): task time, success and peak force against RTT per
+operator, the straight-line fits, and the findings as numbers."""
+
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")  # files only: no display on a server or a worker
+import matplotlib.pyplot as plt
+
+from experiments.sweep.summary import Fit, break_even_s, fits, groups, interval
+
+COLOURS = {"ground": "tab:orange", "onboard": "tab:blue"}
+
+
+def _by_operator(rows: list[dict[str, Any]], key: str) -> dict[str, tuple[list[float], list[tuple]]]:
+    """Per operator: RTTs and (median, 2.5th, 97.5th) of `key` at each."""
+    out: dict[str, tuple[list[float], list[tuple]]] = {}
+    for (operator, rtt), mine in groups(rows).items():
+        rtts, stats = out.setdefault(operator, ([], []))
+        rtts.append(rtt)
+        stats.append(interval([float(r[key]) for r in mine]))
+    return out
+
+
+def _interval_plot(
+    rows: list[dict[str, Any]], key: str, ylabel: str, path: Path, line: dict[str, Fit]
+) -> None:
+    fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=110)
+    for operator, (rtts, stats) in _by_operator(rows, key).items():
+        med = [s[0] for s in stats]
+        err = [
+            [m - s[1] for m, s in zip(med, stats, strict=True)],
+            [s[2] - m for m, s in zip(med, stats, strict=True)],
+        ]
+        colour = COLOURS.get(operator)
+        ax.errorbar(rtts, med, yerr=err, fmt="o", capsize=4, color=colour, label=f"{operator}: median, 95 %")
+        fit = line.get(operator)
+        if fit is not None:
+            xs = [min(rtts), max(rtts)]
+            ax.plot(
+                xs,
+                [fit.intercept + fit.slope * x for x in xs],
+                "--",
+                color=colour,
+                label=f"{operator} fit: {fit.slope:.2f} s/s, R$^2$ {fit.r2:.3f}",
+            )
+    ax.set_xlabel("round trip [s]")
+    ax.set_ylabel(ylabel)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def _success_plot(rows: list[dict[str, Any]], path: Path) -> None:
+    fig, ax = plt.subplots(figsize=(6.4, 3.6), dpi=110)
+    per: dict[str, tuple[list[float], list[float]]] = {}
+    for (operator, rtt), mine in groups(rows).items():
+        rtts, rates = per.setdefault(operator, ([], []))
+        rtts.append(rtt)
+        rates.append(100.0 * sum(r["success"] for r in mine) / len(mine))
+    for operator, (rtts, rates) in per.items():
+        ax.plot(rtts, rates, "o-", color=COLOURS.get(operator), label=operator)
+    ax.set_ylim(-5, 105)
+    ax.set_xlabel("round trip [s]")
+    ax.set_ylabel("success [%]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def findings(rows: list[dict[str, Any]]) -> list[str]:
+    """The sweep's conclusions as sentences with numbers."""
+    lines = []
+    task_fits, operator_fits = fits(rows), fits(rows, "operator_time_s")
+    for operator, fit in task_fits.items():
+        lines.append(
+            f"- **{operator}**: task time = {fit.intercept:.2f} s + {fit.slope:.3f} x RTT "
+            f"(R^2 = {fit.r2:.3f}); the operator knew the outcome "
+            f"{operator_fits[operator].slope:.3f} s later per second of RTT "
+            f"(intercept {operator_fits[operator].intercept:.2f} s)."
+        )
+    ground, onboard = task_fits.get("ground"), task_fits.get("onboard")
+    if ground is not None and onboard is not None:
+        ratio = onboard.slope / ground.slope if ground.slope else float("nan")
+        lines.append(
+            f"- The onboard slope is {100.0 * ratio:.1f} % of the ground slope "
+            f"({onboard.slope:.3f} against {ground.slope:.3f} s per s of RTT)."
+        )
+        crossing = break_even_s(ground, onboard)
+        rtts = sorted({r["rtt_s"] for r in rows})
+        if crossing is None:
+            lines.append("- The two lines are parallel: no break-even delay.")
+        elif crossing <= rtts[0]:
+            lines.append(
+                f"- Break-even: the fits cross at {crossing:.2f} s, at or below the smallest RTT "
+                f"measured ({rtts[0]:g} s): onboard is faster at every delay measured."
+            )
+        else:
+            lines.append(
+                f"- Break-even: onboard wins beyond an RTT of {crossing:.2f} s (where the fits cross)."
+            )
+    return lines
+
+
+def write_report(directory: Path, rows: list[dict[str, Any]], table: list[dict[str, Any]]) -> None:
+    line = fits(rows)
+    _interval_plot(
+        rows, "task_time_s", "task time on the robot [s]", directory / "task_time_vs_rtt.png", line
+    )
+    _success_plot(rows, directory / "success_vs_rtt.png")
+    _interval_plot(rows, "max_force_n", "peak force [N]", directory / "peak_force_vs_rtt.png", {})
+    task = rows[0]["task"]
+    rtts = ", ".join(f"{r:g}" for r in sorted({r["rtt_s"] for r in rows}))
+    operators = ", ".join(dict.fromkeys(r["operator"] for r in rows))
+    text = [
+        f"# Latency sweep: {task}",
+        "",
+        f"{len(rows)} trials; round trips {rtts} s; operators {operators}. The task time is measured on the "
+        "robot, from the first behavior's start to the last one's end (the paper's run time); the operator "
+        "time runs from the first send until the outcome came down the link.",
+        "",
+        "## Findings",
+        "",
+        *findings(rows),
+        "",
+        "## Task time against round trip",
+        "",
+        "![task time vs RTT](task_time_vs_rtt.png)",
+        "",
+        "## Success rate",
+        "",
+        "![success vs RTT](success_vs_rtt.png)",
+        "",
+        "## Peak force",
+        "",
+        "![peak force vs RTT](peak_force_vs_rtt.png)",
+        "",
+        "## Per operator and round trip",
+        "",
+        "| operator | RTT [s] | trials | success | task time median [s] | 95 % interval [s] "
+        "| peak force [N] |",
+        "|---|---|---|---|---|---|---|",
+        *[
+            f"| {t['operator']} | {t['rtt_s']:g} | {t['trials']} | {100.0 * t['success_rate']:.0f} % | "
+            f"{t['task_time_median_s']:.2f} | {t['task_time_p2_5_s']:.2f}-{t['task_time_p97_5_s']:.2f} | "
+            f"{t['Max force [N]']} |"
+            for t in table
+        ],
+        "",
+        "The paper's Tables 1-3 rows for every grid point are in summary.md and summary.csv; every trial in "
+        "trials.csv.",
+    ]
+    (directory / "report.md").write_text("\n".join(text) + "\n")

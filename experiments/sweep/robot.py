@@ -1,0 +1,134 @@
+"""The robot side of a virtual-time trial: the task's scene, its commands run in order one at a
+time by the server's rules (robot_sim/executor.py), and the figures the paper's tables use,
+measured where they happen (on the robot), not where they are reported.
+
+It speaks the messages of the real API, as Python objects: a POST of a command (answered with
+its acceptance), a GET of a command's status, and a command event when one ends.
+"""
+
+from collections import deque
+from dataclasses import dataclass, field
+
+from robot_sim.behaviors import BehaviorReport
+from robot_sim.executor import CommandExecutor, CommandParams
+from robot_sim.params import StateMachineParams
+from robot_sim.policies.run import StepRecord
+from robot_sim.sim import Simulation
+
+
+@dataclass(frozen=True)
+class Post:
+    """POST /api/commands: the command, tagged by its sender (the operator's own name for it)."""
+
+    tag: str
+    params: CommandParams
+
+
+@dataclass(frozen=True)
+class Query:
+    """GET /api/commands/{id}, by the sender's tag."""
+
+    tag: str
+
+
+@dataclass(frozen=True)
+class Accepted:
+    tag: str
+
+
+@dataclass(frozen=True)
+class Status:
+    """The answer to a Query: unknown (the POST never arrived), still going, or its report."""
+
+    tag: str
+    known: bool
+    report: BehaviorReport | None  # set when done
+
+
+@dataclass(frozen=True)
+class Done:
+    """The command event of a command that ended (a WebSocket message: it can be lost)."""
+
+    tag: str
+    report: BehaviorReport
+
+
+Request = Post | Query
+Reply = Accepted | Status
+
+
+@dataclass
+class Figures:
+    """Accumulated on the robot, tick by tick, from the first behavior's start to the last's end."""
+
+    steps: list[StepRecord] = field(default_factory=list)  # every behavior that ran, in order
+    first_start_s: float | None = None
+    force_sum: float = 0.0  # [N x ticks] while a behavior ran or the robot held between them
+    torque_sum: float = 0.0  # [N m x ticks]
+    ticks: int = 0
+    at_last_end: tuple[float, float, int] = (0.0, 0.0, 0)  # the sums when the last behavior ended
+
+    def mean_force_n(self) -> float:
+        force, _, ticks = self.at_last_end
+        return force / ticks if ticks else 0.0
+
+    def mean_torque_nm(self) -> float:
+        _, torque, ticks = self.at_last_end
+        return torque / ticks if ticks else 0.0
+
+
+class VirtualRobot:
+    def __init__(self, task: str, seed: int) -> None:
+        self.sim = Simulation(task, seed)
+        self.executor = CommandExecutor(self.sim)
+        self.queue: deque[Post] = deque()
+        self.running: Post | None = None
+        self.reports: dict[str, BehaviorReport | None] = {}  # by tag: None while queued or running
+        self.figures = Figures()
+        self._pending: dict[str, float] = {}  # tag -> sim time the running behavior started
+
+    def handle(self, request: Request) -> Reply:
+        """A request that arrived; its answer (the server answers between 2 ms batches)."""
+        if isinstance(request, Post):
+            if request.tag not in self.reports:  # a resent POST that did arrive is not run twice
+                self.reports[request.tag] = None
+                self.queue.append(request)
+            return Accepted(request.tag)
+        return Status(request.tag, request.tag in self.reports, self.reports.get(request.tag))
+
+    def tick(self) -> Done | None:
+        """One control period: start the next queued command if idle, step; an ended command."""
+        sim = self.sim
+        if sim.behavior is None and self.running is None and self.queue:
+            self.running = self.queue.popleft()
+            self.executor.start(self.running.params)
+            if self.figures.first_start_s is None:
+                self.figures.first_start_s = sim.time
+        report = sim.step()
+        figures = self.figures
+        if figures.first_start_s is not None:
+            figures.force_sum += sim.controller.force_norm
+            figures.torque_sum += sim.controller.torque_norm
+            figures.ticks += 1
+        if report is None:
+            return None
+        assert self.running is not None
+        figures.at_last_end = (figures.force_sum, figures.torque_sum, figures.ticks)
+        ended = self.executor.behavior_ended(report)
+        step = ended.step
+        if step is None:
+            params = self.running.params
+            assert not isinstance(params, StateMachineParams)  # a machine's steps come with ended.step
+            step = StepRecord(len(figures.steps), params, "", report)
+        figures.steps.append(step)
+        if ended.command is None:
+            return None
+        done = Done(self.running.tag, ended.command)
+        self.reports[done.tag] = ended.command
+        self.running = None
+        return done
+
+    @property
+    def last_end_s(self) -> float | None:
+        steps = self.figures.steps
+        return steps[-1].report.ended_at if steps else None

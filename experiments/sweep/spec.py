@@ -1,0 +1,81 @@
+"""A trial's settings, the link it runs over, and the grid of trials a sweep runs."""
+
+import random
+from dataclasses import asdict, dataclass
+from typing import Any
+
+from latency.named import named_profile
+from latency.profile import LinkProfile
+
+OPERATORS = ("ground", "onboard")
+# The fields that name a trial: a row of trials.csv with the same values is the same trial.
+KEY_FIELDS = ("task", "operator", "rtt_s", "jitter_s", "loss", "seed")
+
+
+@dataclass(frozen=True)
+class TrialSpec:
+    task: str
+    operator: str  # ground: each behavior sent and waited for; onboard: one state_machine command
+    rtt_s: float  # [s] round trip, split evenly uplink/downlink
+    jitter_s: float  # [s] uniform +- jitter on every message's delay (order kept)
+    loss: float  # chance a WebSocket message (an event) is lost; HTTP rides a reliable channel
+    seed: int  # the scene's misalignments; with the trial's other settings, every random draw
+    think_s: float = 2.0  # [s] an operator's mean think time between commands: uniform 0.5-1.5x
+    profile: str | None = None  # a named link profile whose blackouts apply (its delays do not)
+
+    def key(self) -> tuple[str, ...]:
+        """As written in trials.csv (repr of floats: exact)."""
+        return tuple(cell(getattr(self, name)) for name in KEY_FIELDS)
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def rng(self, purpose: str) -> random.Random:
+        """A generator for one purpose, the same for this seed at every RTT and for either
+        operator (a paired design: only the delay differs between grid points)."""
+        return random.Random(f"{purpose}:{self.task}:{self.seed}")
+
+    def link_profile(self) -> LinkProfile:
+        base = named_profile(self.profile) if self.profile else LinkProfile()
+        draw = self.rng("link").randrange(2**32)
+        return base.merged(
+            {
+                "uplink": self.rtt_s / 2.0,
+                "downlink": self.rtt_s / 2.0,
+                "jitter": {"distribution": "uniform", "amount": self.jitter_s, "seed": draw}
+                if self.jitter_s > 0.0
+                else base.jitter.model_dump(),
+                "loss": {"model": "bernoulli", "probability": self.loss, "seed": draw}
+                if self.loss > 0.0
+                else base.loss.model_dump(),
+            }
+        )
+
+
+def cell(value: object) -> str:
+    """How a value is written in the CSV: repr for floats (round-trips exactly)."""
+    if isinstance(value, bool):
+        return "1" if value else "0"
+    if isinstance(value, float):
+        return repr(value)
+    return "" if value is None else str(value)
+
+
+def grid(
+    task: str,
+    rtts_s: list[float],
+    trials: int,
+    operators: list[str],
+    jitter_s: float,
+    loss: float,
+    seed: int,
+    think_s: float,
+    profile: str | None,
+) -> list[TrialSpec]:
+    """Every trial, in the order the outputs list them: operator, RTT, then seed."""
+    return [
+        TrialSpec(task, operator, rtt, jitter_s, loss, seed + i, think_s, profile)
+        for operator in operators
+        for rtt in rtts_s
+        for i in range(trials)
+    ]

@@ -1,0 +1,122 @@
+"""What a sweep found: the paper's Tables 1-3 rows per (operator, RTT), task time against RTT
+as a straight line per operator, and the delay beyond which onboard autonomy wins."""
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robot_sim.policies.run import paper_rows
+
+PTWL_EXITS = ("timeout", "goal_reached", "wrench_breach")
+
+
+def as_trial_metrics(row: dict[str, Any]) -> dict[str, Any]:
+    """A trials.csv row in trial_metrics' shape (what the paper's rows are computed from);
+    the run time is the robot's task time."""
+    return {**row, "run_time_s": row["task_time_s"], "ptwl": {e: row[f"ptwl_{e}"] for e in PTWL_EXITS}}
+
+
+def groups(rows: list[dict[str, Any]]) -> dict[tuple[str, float], list[dict[str, Any]]]:
+    """Rows by (operator, RTT), in the order they first appear (grid order)."""
+    out: dict[tuple[str, float], list[dict[str, Any]]] = {}
+    for row in rows:
+        out.setdefault((row["operator"], row["rtt_s"]), []).append(row)
+    return out
+
+
+def interval(values: list[float]) -> tuple[float, float, float]:
+    """(median, 2.5th, 97.5th percentile): the middle 95 % of the trials."""
+    p = np.percentile(values, [50.0, 2.5, 97.5])
+    return float(p[0]), float(p[1]), float(p[2])
+
+
+@dataclass(frozen=True)
+class Fit:
+    """y = intercept + slope x by least squares over every trial, and its R^2."""
+
+    slope: float
+    intercept: float
+    r2: float
+
+    @classmethod
+    def of(cls, x: list[float], y: list[float]) -> "Fit | None":
+        if len(set(x)) < 2:
+            return None
+        slope, intercept = np.polyfit(x, y, 1)
+        residual = np.asarray(y) - (intercept + slope * np.asarray(x))
+        total = float(np.sum((np.asarray(y) - np.mean(y)) ** 2))
+        r2 = 1.0 - float(np.sum(residual**2)) / total if total > 0.0 else 1.0
+        return cls(float(slope), float(intercept), r2)
+
+
+def fits(rows: list[dict[str, Any]], y: str = "task_time_s") -> dict[str, Fit]:
+    out = {}
+    for operator in dict.fromkeys(r["operator"] for r in rows):
+        mine = [r for r in rows if r["operator"] == operator]
+        fit = Fit.of([r["rtt_s"] for r in mine], [r[y] for r in mine])
+        if fit is not None:
+            out[operator] = fit
+    return out
+
+
+def break_even_s(ground: Fit, onboard: Fit) -> float | None:
+    """[s] RTT where the two lines cross (onboard faster beyond it if its slope is smaller);
+    None if they are parallel."""
+    if ground.slope == onboard.slope:
+        return None
+    return (onboard.intercept - ground.intercept) / (ground.slope - onboard.slope)
+
+
+def summary_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per (operator, RTT): the paper's figures (means) and the time distribution."""
+    out = []
+    for (operator, rtt), mine in groups(rows).items():
+        task = interval([r["task_time_s"] for r in mine])
+        paper = dict(paper_rows([as_trial_metrics(r) for r in mine], [r["success"] for r in mine]))
+        out.append(
+            {
+                "operator": operator,
+                "rtt_s": rtt,
+                "trials": len(mine),
+                "success_rate": sum(r["success"] for r in mine) / len(mine),
+                "task_time_median_s": task[0],
+                "task_time_p2_5_s": task[1],
+                "task_time_p97_5_s": task[2],
+                "operator_time_median_s": interval([r["operator_time_s"] for r in mine])[0],
+                "commands_sent_mean": float(np.mean([r["commands_sent"] for r in mine])),
+                "mean_force_n": float(np.mean([r["mean_force_n"] for r in mine])),
+                **{name: value for name, value in paper.items() if name != "Trials"},
+            }
+        )
+    return out
+
+
+def write_summary(directory: Path, rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """summary.csv (one line per operator and RTT) and summary.md (the paper's layout)."""
+    table = summary_rows(rows)
+    with (directory / "summary.csv").open("w", newline="") as out:
+        writer = csv.DictWriter(out, fieldnames=list(table[0]), lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(table)
+    heads = [f"{t['operator']} {t['rtt_s']:g} s" for t in table]
+    names = [k for k in table[0] if k not in ("operator", "rtt_s")]
+    lines = [
+        f"# {rows[0]['task']}: the paper's Tables 1-3 per operator and round trip",
+        "",
+        "Means over the trials unless named otherwise; times in seconds; the run time is the",
+        "robot's task time (first behavior's start to last one's end).",
+        "",
+        "| | " + " | ".join(heads) + " |",
+        "|---|" + "---|" * len(heads),
+    ]
+    for name in names:
+        lines.append(f"| {name} | " + " | ".join(_text(t[name]) for t in table) + " |")
+    (directory / "summary.md").write_text("\n".join(lines) + "\n")
+    return table
+
+
+def _text(value: object) -> str:
+    return f"{value:.3g}" if isinstance(value, float) else str(value)

@@ -1,0 +1,168 @@
+"""A whole sweep into a directory: the grid, what is already there, the trials still to run (on
+a backend), progress, and the outputs (trials.csv, summary.csv/.md, report.md with its PNGs,
+sweep.json).
+
+Re-running into the same directory runs only the trials missing from trials.csv; Ctrl-C keeps
+every trial that finished (whole rows) and leaves sweep.json saying how many of the grid are
+done. Settings that change what a trial is (task, jitter, loss, think time, seed, profile)
+must match the directory's; RTTs, operators and the trial count may grow.
+"""
+
+import importlib.metadata
+import json
+import platform
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, TextIO
+
+import mujoco
+import numpy as np
+from tqdm import tqdm
+
+from experiments.sweep import backends
+from experiments.sweep.plots import write_report
+from experiments.sweep.spec import TrialSpec, grid
+from experiments.sweep.summary import write_summary
+from experiments.sweep.table import RowWriter, read_rows, row_key, write_sorted
+
+# What a trial is: a directory's trials are only reusable under the same values.
+TRIAL_SETTINGS = ("task", "jitter_s", "loss", "think_s", "seed", "profile")
+
+
+@dataclass
+class SweepSettings:
+    task: str
+    rtts_s: list[float]
+    trials: int
+    operators: list[str]
+    out: str
+    jitter_s: float = 0.0
+    loss: float = 0.0
+    think_s: float = 2.0
+    seed: int = 0
+    profile: str | None = None
+    workers: int = 1
+    backend: str = "local"
+    ray_address: str | None = None
+    argv: list[str] = field(default_factory=list)
+
+    def specs(self) -> list[TrialSpec]:
+        return grid(
+            self.task,
+            self.rtts_s,
+            self.trials,
+            self.operators,
+            self.jitter_s,
+            self.loss,
+            self.seed,
+            self.think_s,
+            self.profile,
+        )
+
+
+class Progress:
+    """A bar with trials done, rate and ETA on a terminal; plain lines otherwise (a log)."""
+
+    def __init__(self, total: int, done: int, stream: TextIO = sys.stderr) -> None:
+        self.total, self.done, self.stream = total, done, stream
+        self._started, self._new = time.monotonic(), 0
+        self._bar = (
+            tqdm(total=total, initial=done, unit="trial", desc="sweep", file=stream)
+            if stream.isatty()
+            else None
+        )
+        self._every = max(1, total // 50)
+
+    def update(self) -> None:
+        self.done += 1
+        self._new += 1
+        if self._bar is not None:
+            self._bar.update()
+            return
+        if self._new % self._every == 0 or self.done == self.total:
+            elapsed = time.monotonic() - self._started
+            rate = self._new / elapsed if elapsed > 0 else 0.0
+            eta = (self.total - self.done) / rate if rate > 0 else float("inf")
+            print(
+                f"sweep: {self.done}/{self.total} trials, {60.0 * rate:.1f} trials/min, ETA {eta:.0f} s",
+                file=self.stream,
+                flush=True,
+            )
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+
+
+def versions(backend: str) -> dict[str, str]:
+    found = {
+        "ptwl-console": importlib.metadata.version("ptwl-console"),
+        "python": platform.python_version(),
+        "mujoco": mujoco.__version__,
+        "numpy": np.__version__,
+    }
+    if backend == "ray":
+        found["ray"] = importlib.metadata.version("ray")
+    return found
+
+
+def _check_directory(out: Path, settings: SweepSettings) -> None:
+    """Refuse to mix trials of different settings in one directory."""
+    path = out / "sweep.json"
+    if not path.exists():
+        return
+    before = json.loads(path.read_text())["arguments"]
+    for name in TRIAL_SETTINGS:
+        if before.get(name) != getattr(settings, name):
+            raise SystemExit(
+                f"{out} holds a sweep with {name} = {before.get(name)!r}, not {getattr(settings, name)!r}: "
+                "use another --out, or the same settings to resume"
+            )
+
+
+def _write_json(out: Path, settings: SweepSettings, specs: list[TrialSpec], done: int, wall_s: float) -> None:
+    record = {
+        "arguments": asdict(settings),
+        "versions": versions(settings.backend),
+        "seeds": sorted({s.seed for s in specs}),
+        "grid_trials": len(specs),
+        "trials_done": done,
+        "complete": done == len(specs),
+        "wall_s_this_run": wall_s,
+    }
+    tmp = out / "sweep.json.tmp"
+    tmp.write_text(json.dumps(record, indent=2) + "\n")
+    tmp.replace(out / "sweep.json")
+
+
+def run_sweep(settings: SweepSettings, stream: TextIO = sys.stderr) -> list[dict[str, Any]]:
+    """Run what is missing and write every output; the rows of this grid, in grid order."""
+    out = Path(settings.out)
+    out.mkdir(parents=True, exist_ok=True)
+    _check_directory(out, settings)
+    specs = settings.specs()
+    order = [s.key() for s in specs]
+    csv_path = out / "trials.csv"
+    have = {row_key(r) for r in read_rows(csv_path)}
+    todo = [s for s in specs if s.key() not in have]
+    started = time.monotonic()
+    _write_json(out, settings, specs, len(specs) - len(todo), 0.0)
+    writer = RowWriter(csv_path)
+    progress = Progress(len(specs), len(specs) - len(todo), stream)
+    try:
+        for row in backends.run(todo, settings.backend, settings.workers, settings.ray_address):
+            writer.append(row)
+            progress.update()
+    finally:
+        writer.close()
+        progress.close()
+        _write_json(out, settings, specs, progress.done, time.monotonic() - started)
+    rows = read_rows(csv_path)
+    write_sorted(csv_path, rows, order)
+    wanted = set(order)
+    mine = [r for r in read_rows(csv_path) if row_key(r) in wanted]
+    table = write_summary(out, mine)
+    write_report(out, mine, table)
+    return mine

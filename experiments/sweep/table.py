@@ -1,0 +1,123 @@
+"""trials.csv: one row per trial, its columns and types, appended as trials end, read back.
+
+A row is written whole (one write, then flush), so an interrupted sweep leaves complete rows
+only; a final line without its newline (a kill mid-write) is ignored when read back. When the
+grid is complete the file is rewritten in grid order (to a temporary file, then renamed), so
+the same arguments give the same bytes whatever the number of workers or backend.
+"""
+
+import csv
+import io
+import os
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import Any
+
+from experiments.sweep.spec import KEY_FIELDS, cell
+
+
+def _optional_str(text: str) -> str | None:
+    return text or None
+
+
+def _bool(text: str) -> bool:
+    return text == "1"
+
+
+# name, parser, meaning (the README lists the same meanings)
+COLUMNS: list[tuple[str, Callable[[str], Any], str]] = [
+    ("task", str, "the task (its scene and state machine)"),
+    ("operator", str, "ground (move-and-wait, one behavior per round trip) or onboard (one state machine)"),
+    ("rtt_s", float, "[s] round trip, half each way"),
+    ("jitter_s", float, "[s] uniform +- on each message's delay"),
+    ("loss", float, "chance an event (WebSocket message) is lost"),
+    ("seed", int, "the scene's misalignments and every draw of the trial"),
+    ("think_s", float, "[s] the operator's mean think time between commands"),
+    ("profile", _optional_str, "named link profile whose blackouts applied"),
+    ("success", _bool, "the scene's predicate when the operator learned the outcome"),
+    ("progress", float, "the predicate's progress value then (depth, angle, error: its unit)"),
+    ("end", str, "how the machine ended: completed, failed, aborted, fault, timed_out"),
+    ("why", str, "the machine's reason"),
+    ("task_time_s", float, "[s] on the robot, first behavior's start to last one's end"),
+    ("operator_time_s", float, "[s] from the first send until the operator knew the outcome"),
+    ("commands_sent", int, "POSTs, resends included"),
+    ("wait_cycles", int, "commands the operator waited for (move-and-wait cycles)"),
+    ("requeries", int, "status questions after a report was overdue (onboard: every 10 s)"),
+    ("think_total_s", float, "[s] thought in total"),
+    ("max_force_n", float, "[N] peak |f| on the port"),
+    ("mean_force_n", float, "[N] mean |f| over the task time"),
+    ("max_torque_nm", float, "[N m] peak |tau|"),
+    ("mean_torque_nm", float, "[N m] mean |tau| over the task time"),
+    ("behaviors", int, "behaviors run (the gripper apart)"),
+    ("rwe", int, "RWEs"),
+    ("dither", int, "Dithers"),
+    ("gripper", int, "gripper closes and opens"),
+    ("ptwl_timeout", int, "PTWLs that ended timeout"),
+    ("ptwl_goal_reached", int, "PTWLs that ended goal_reached"),
+    ("ptwl_wrench_breach", int, "PTWLs that ended wrench_breach"),
+    ("lost_messages", int, "messages the link lost (loss, drop blackouts)"),
+    ("blackout_s", float, "[s] of the trial inside blackout windows"),
+]
+NAMES = [name for name, _, _ in COLUMNS]
+
+
+def row_key(row: dict[str, Any]) -> tuple[str, ...]:
+    return tuple(cell(row[name]) for name in KEY_FIELDS)
+
+
+def _line(row: dict[str, Any]) -> str:
+    out = io.StringIO()
+    csv.writer(out, lineterminator="\n").writerow([cell(row[name]) for name in NAMES])
+    return out.getvalue()
+
+
+def read_rows(path: Path) -> list[dict[str, Any]]:
+    """The complete rows of an existing trials.csv (typed), or [] if there is none."""
+    if not path.exists():
+        return []
+    text = path.read_text()
+    if not text.endswith("\n"):
+        text = text[: text.rfind("\n") + 1]  # a line cut short by a kill
+    reader = csv.reader(io.StringIO(text))
+    header = next(reader, None)
+    if header is None:
+        return []
+    if header != NAMES:
+        raise ValueError(f"{path}: not this version's trials.csv (columns {header[:4]}...)")
+    parsers = [parse for _, parse, _ in COLUMNS]
+    return [{n: p(v) for n, p, v in zip(NAMES, parsers, values, strict=True)} for values in reader]
+
+
+class RowWriter:
+    """Appends rows to trials.csv as trials end (the header first if the file is new)."""
+
+    def __init__(self, path: Path) -> None:
+        existing = read_rows(path)
+        self._file = path.open("w" if not existing else "a")
+        if not existing:
+            self._file.write(",".join(NAMES) + "\n")
+        else:  # drop a partial last line: rewrite what was whole
+            self._file.close()
+            write_sorted(path, existing, [row_key(r) for r in existing])
+            self._file = path.open("a")
+        self._file.flush()
+
+    def append(self, row: dict[str, Any]) -> None:
+        self._file.write(_line(row))
+        self._file.flush()
+
+    def close(self) -> None:
+        self._file.close()
+
+
+def write_sorted(path: Path, rows: Iterable[dict[str, Any]], order: list[tuple[str, ...]]) -> None:
+    """Rewrite the file with `rows` in `order` (keys), atomically."""
+    rank = {key: i for i, key in enumerate(order)}
+    ordered = sorted(rows, key=lambda r: rank.get(row_key(r), len(rank)))
+    tmp = path.with_suffix(".csv.tmp")
+    with tmp.open("w") as out:
+        out.write(",".join(NAMES) + "\n")
+        out.writelines(_line(r) for r in ordered)
+        out.flush()
+        os.fsync(out.fileno())
+    os.replace(tmp, path)

@@ -1,0 +1,112 @@
+"""One trial in virtual time: the robot, both directions of the link and the operator on one
+simulated clock (the robot's sim time), as fast as the CPU allows; no sleeping, no sockets.
+
+Per control tick (1 ms):
+    the link releases what is due, in time order: requests into the robot's inbox, replies and
+        events to the operator, who reacts at once (its next request enters the link then)
+    the operator acts on its own deadlines (a think time over, a report overdue)
+    the robot answers its inbox (the server does so between 2 ms batches), starts a queued
+        command if idle, and steps; a command that ended goes down as an event
+
+The ground's own instants are kept to the tick (1 ms). Every draw (scene, think times, jitter,
+loss) comes from the trial's settings, so a trial gives the same row on any worker.
+"""
+
+from collections.abc import Callable
+from functools import partial
+from typing import Any
+
+from experiments.sweep.operators import operator_for
+from experiments.sweep.robot import Done, Reply, Request, VirtualRobot
+from experiments.sweep.spec import TrialSpec
+from latency.clock import SimulatedLink
+from latency.delay_line import Dropped
+from latency.profile import LinkProfile
+from robot_sim.policies.run import trial_metrics
+
+MAX_TRIAL_S = 3600.0  # [s] of virtual time: a trial still going has lost its way
+REQUEST_BYTES = 400  # a command's JSON, about
+EVENT_BYTES = 1500  # a command event or status with its report, about
+
+
+def blackout_s(profile: LinkProfile, until_s: float) -> float:
+    """[s] of [0, until_s] inside the profile's blackout windows (timed from t = 0)."""
+    total = 0.0
+    for window in profile.blackouts:
+        start = window.start
+        while start < until_s:
+            total += max(0.0, min(start + window.duration, until_s) - start)
+            if window.period is None:
+                break
+            start += window.period
+    return total
+
+
+def run_trial(spec: TrialSpec) -> dict[str, Any]:
+    """The trial's row of trials.csv (table.COLUMNS)."""
+    robot = VirtualRobot(spec.task, spec.seed)
+    sim = robot.sim
+    profile = spec.link_profile()
+    link = SimulatedLink(profile)
+    operator = operator_for(spec)
+    inbox: list[Request] = []
+    lost = [0]
+
+    def admit(direction: str, size: int, kind: str, deliver: Callable[[], object], lossy: bool) -> None:
+        if isinstance(link.link.admit(direction, size, kind, deliver, lossy), Dropped):
+            lost[0] += 1
+
+    def up(requests: list[Request]) -> None:
+        for request in requests:  # HTTP: a reliable channel, lost only in a `drop` blackout
+            admit("uplink", REQUEST_BYTES, "http", partial(inbox.append, request), lossy=False)
+
+    def down(message: Reply | Done) -> None:
+        def deliver() -> None:
+            up(operator.on_message(link.clock.now, message))
+
+        lossy = isinstance(message, Done)  # an event on the telemetry socket; a reply is HTTP
+        admit("downlink", EVENT_BYTES, "ws" if lossy else "http", deliver, lossy)
+
+    up(operator.begin(0.0, sim.state().port))
+    while not operator.finished and sim.time < MAX_TRIAL_S:
+        now = sim.time
+        link.advance_to(now)
+        while (wake := operator.wake_at) is not None and wake <= now:
+            up(operator.on_wake(now))
+        for request in inbox:
+            down(robot.handle(request))
+        inbox.clear()
+        done = robot.tick()
+        if done is not None:
+            link.advance_to(sim.time)
+            down(done)
+
+    figures = robot.figures
+    first, last = figures.first_start_s, robot.last_end_s
+    verdict = sim.task()
+    finished_at = operator.finished_at_s if operator.finished_at_s is not None else sim.time
+    metrics = trial_metrics(figures.steps)
+    return {
+        **spec.as_dict(),
+        "success": verdict.success,
+        "progress": verdict.progress,
+        "end": operator.end or "timed_out",
+        "why": operator.why or f"no outcome after {MAX_TRIAL_S:g} s",
+        "task_time_s": last - first if first is not None and last is not None else 0.0,
+        "operator_time_s": finished_at,
+        "commands_sent": operator.commands_sent,
+        "wait_cycles": operator.wait_cycles,
+        "requeries": operator.requeries,
+        "think_total_s": operator.think_s,
+        "max_force_n": metrics["max_force_n"],
+        "mean_force_n": figures.mean_force_n(),
+        "max_torque_nm": metrics["max_torque_nm"],
+        "mean_torque_nm": figures.mean_torque_nm(),
+        "behaviors": metrics["behaviors"],
+        "rwe": metrics["rwe"],
+        "dither": metrics["dither"],
+        "gripper": metrics["gripper"],
+        **{f"ptwl_{exit_name}": count for exit_name, count in metrics["ptwl"].items()},
+        "lost_messages": lost[0],
+        "blackout_s": blackout_s(profile, finished_at),
+    }

@@ -1,0 +1,117 @@
+"""`ptwl sweep`: a task at several round trips, ground-operated vs onboard, in virtual time.
+
+ptwl sweep --task lid --rtt 0,1,2,5,10 --trials 20 --operator ground,onboard --out runs/lid
+"""
+
+import argparse
+import os
+import sys
+from collections.abc import Callable
+from typing import Any
+
+from experiments.sweep.backends import BACKENDS
+from experiments.sweep.plots import findings
+from experiments.sweep.spec import OPERATORS
+from experiments.sweep.sweep import SweepSettings, run_sweep
+from latency.named import named_profiles
+from latency.profile import MAX_DELAY_S
+from robot_sim.policies import POLICIES
+
+
+def _floats(text: str) -> list[float]:
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a comma-separated list of seconds, got {text!r}") from None
+    if not values or any(not 0.0 <= v <= MAX_DELAY_S for v in values):
+        raise argparse.ArgumentTypeError(f"each RTT must be in [0, {MAX_DELAY_S:g}] s, got {text!r}")
+    return sorted(set(values))
+
+
+def _operators(text: str) -> list[str]:
+    names = [v.strip() for v in text.split(",") if v.strip()]
+    if not names or any(n not in OPERATORS for n in names):
+        raise argparse.ArgumentTypeError(f"operators from {', '.join(OPERATORS)}, got {text!r}")
+    return list(dict.fromkeys(names))
+
+
+def _ranged(kind: type, lo: float, hi: float, unit: str = "") -> Callable[[str], Any]:
+    def parse(text: str) -> float:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"a number, got {text!r}") from None
+        if not lo <= value <= hi:
+            raise argparse.ArgumentTypeError(f"must be in [{lo:g}, {hi:g}]{unit}, got {text}")
+        return value
+
+    return parse
+
+
+def settings_from(args: argparse.Namespace, argv: list[str]) -> SweepSettings:
+    return SweepSettings(
+        task=args.task,
+        rtts_s=args.rtt,
+        trials=args.trials,
+        operators=args.operator,
+        out=args.out,
+        jitter_s=args.jitter,
+        loss=args.loss,
+        think_s=args.think,
+        seed=args.seed,
+        profile=args.profile,
+        workers=args.workers,
+        backend=args.backend,
+        ray_address=args.ray_address,
+        argv=argv,
+    )
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    settings = settings_from(args, sys.argv[1:])
+    if args.realtime:
+        from experiments.sweep.realtime import cross_check
+
+        return cross_check(settings)
+    try:
+        rows = run_sweep(settings)
+    except KeyboardInterrupt:
+        print(
+            f"\nptwl sweep: interrupted; finished trials are in {args.out}/trials.csv; "
+            "run the same command to resume",
+            file=sys.stderr,
+        )
+        return 130
+    print(f"ptwl sweep: {len(rows)} trials in {args.out} (report.md, summary.md, trials.csv)")
+    for line in findings(rows):
+        print(line)
+    return 0
+
+
+def add_sweep_parser(sub: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
+    sweep = sub.add_parser(
+        "sweep", help="latency sweep: a task at several RTTs, ground-operated vs onboard, in virtual time"
+    )
+    sweep.add_argument("--task", required=True, choices=list(POLICIES))
+    sweep.add_argument("--rtt", type=_floats, default=[0.0, 1.0, 2.0, 5.0, 10.0], help="[s] e.g. 0,1,2,5,10")
+    sweep.add_argument("--trials", type=_ranged(int, 1, 100_000), default=10, help="trials per grid point")
+    sweep.add_argument("--operator", type=_operators, default=list(OPERATORS), help="ground,onboard")
+    sweep.add_argument("--out", required=True, help="directory for trials.csv, summary, report (resumable)")
+    sweep.add_argument("--jitter", type=_ranged(float, 0.0, 60.0, " s"), default=0.0, help="[s] uniform +-")
+    sweep.add_argument("--loss", type=_ranged(float, 0.0, 0.9), default=0.0, help="chance an event is lost")
+    sweep.add_argument(
+        "--think", type=_ranged(float, 0.0, 600.0, " s"), default=2.0, help="[s] mean think time (0.5-1.5x)"
+    )
+    sweep.add_argument("--seed", type=_ranged(int, 0, 2**31 - 1), default=0, help="first scene seed")
+    sweep.add_argument(
+        "--profile", choices=sorted(named_profiles()), default=None, help="a named link whose blackouts apply"
+    )
+    sweep.add_argument("--workers", type=_ranged(int, 1, 1024), default=os.cpu_count() or 1)
+    sweep.add_argument("--backend", choices=BACKENDS, default="local")
+    sweep.add_argument("--ray-address", default=None, help="an existing Ray cluster (default: RAY_ADDRESS)")
+    sweep.add_argument(
+        "--realtime",
+        action="store_true",
+        help="one grid point through the real `ptwl serve` and `ptwl proxy`, against virtual time",
+    )
+    sweep.set_defaults(func=cmd_sweep)
