@@ -13,10 +13,11 @@ loss) comes from the trial's settings, so a trial gives the same row on any work
 """
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from functools import partial
 from typing import Any
 
-from experiments.sweep.operators import operator_for
+from experiments.sweep.operators import Operator, operator_for
 from experiments.sweep.robot import Done, Reply, Request, VirtualRobot
 from experiments.sweep.spec import TrialSpec
 from latency.clock import SimulatedLink
@@ -42,11 +43,23 @@ def blackout_s(profile: LinkProfile, until_s: float) -> float:
     return total
 
 
-def run_trial(spec: TrialSpec) -> dict[str, Any]:
-    """The trial's row of trials.csv (table.COLUMNS)."""
+@dataclass
+class Trial:
+    """A finished trial: the robot as it ended, the operator, the link it ran over."""
+
+    spec: TrialSpec
+    robot: VirtualRobot
+    operator: Operator
+    profile: LinkProfile
+    lost: int  # messages the link lost
+
+
+def simulate(spec: TrialSpec, profile: LinkProfile | None = None) -> Trial:
+    """Run the trial to its end (the operator knows the outcome) or MAX_TRIAL_S; `profile`
+    replaces the spec's link (tests give blackouts at chosen times)."""
     robot = VirtualRobot(spec.task, spec.seed)
     sim = robot.sim
-    profile = spec.link_profile()
+    profile = profile or spec.link_profile()
     link = SimulatedLink(profile)
     operator = operator_for(spec)
     inbox: list[Request] = []
@@ -80,7 +93,16 @@ def run_trial(spec: TrialSpec) -> dict[str, Any]:
         if done is not None:
             link.advance_to(sim.time)
             down(done)
+    return Trial(spec, robot, operator, profile, lost[0])
 
+
+def run_trial(spec: TrialSpec) -> dict[str, Any]:
+    """The trial's row of trials.csv (table.COLUMNS)."""
+    return row(simulate(spec))
+
+
+def row(trial: Trial) -> dict[str, Any]:
+    spec, robot, operator, sim = trial.spec, trial.robot, trial.operator, trial.robot.sim
     figures = robot.figures
     first, last = figures.first_start_s, robot.last_end_s
     verdict = sim.task()
@@ -107,6 +129,6 @@ def run_trial(spec: TrialSpec) -> dict[str, Any]:
         "dither": metrics["dither"],
         "gripper": metrics["gripper"],
         **{f"ptwl_{exit_name}": count for exit_name, count in metrics["ptwl"].items()},
-        "lost_messages": lost[0],
-        "blackout_s": blackout_s(profile, finished_at),
+        "lost_messages": trial.lost,
+        "blackout_s": blackout_s(trial.profile, finished_at),
     }

@@ -1,0 +1,160 @@
+"""A whole sweep: its outputs, the same bytes whatever the workers or backend, resuming, Ctrl-C,
+and the findings it exists for (ground time linear in RTT, onboard flat)."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from experiments.sweep import sweep as sweep_module
+from experiments.sweep.summary import fits
+from experiments.sweep.sweep import SweepSettings, run_sweep
+from experiments.sweep.table import NAMES, read_rows
+from ptwl.cli import main
+
+SMALL: dict[str, Any] = {
+    "task": "quick_connect",
+    "rtts_s": [0.0, 1.0],
+    "trials": 2,
+    "operators": ["ground", "onboard"],
+}
+
+
+def small(out: Path, **changes: Any) -> SweepSettings:
+    return SweepSettings(**{**SMALL, "out": str(out), "think_s": 1.0, **changes})
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The small grid on one worker."""
+    out = tmp_path_factory.mktemp("reference")
+    run_sweep(small(out, workers=1))
+    return out
+
+
+def test_outputs_list_every_trial_and_the_papers_rows(reference: Path) -> None:
+    rows = read_rows(reference / "trials.csv")
+    assert [(r["operator"], r["rtt_s"], r["seed"]) for r in rows] == [
+        (op, rtt, seed) for op in ("ground", "onboard") for rtt in (0.0, 1.0) for seed in (0, 1)
+    ]
+    assert (reference / "trials.csv").read_text().splitlines()[0].split(",") == NAMES
+    assert all(r["success"] for r in rows)
+    summary = (reference / "summary.md").read_text()
+    for name in ("Success", "Max force [N]", "Run time [s]", "PTWL (wrench breach)", "RWE", "Dither"):
+        assert f"| {name} |" in summary
+    assert "| | ground 0 s | ground 1 s | onboard 0 s | onboard 1 s |" in summary
+    record = json.loads((reference / "sweep.json").read_text())
+    assert record["complete"] and record["trials_done"] == 8 and record["seeds"] == [0, 1]
+    assert record["arguments"]["rtts_s"] == [0.0, 1.0] and "mujoco" in record["versions"]
+    for png in ("task_time_vs_rtt.png", "success_vs_rtt.png", "peak_force_vs_rtt.png"):
+        data = (reference / png).read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
+
+
+def test_two_workers_write_the_same_bytes_as_one(reference: Path, tmp_path: Path) -> None:
+    run_sweep(small(tmp_path, workers=2))
+    assert (tmp_path / "trials.csv").read_bytes() == (reference / "trials.csv").read_bytes()
+    assert (tmp_path / "summary.csv").read_bytes() == (reference / "summary.csv").read_bytes()
+
+
+def test_a_rerun_runs_only_the_missing_trials(
+    reference: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    ran: list[int] = []
+    real_run = sweep_module.backends.run
+
+    def counting(specs, *args):  # type: ignore[no-untyped-def]
+        ran.append(len(specs))
+        return real_run(specs, *args)
+
+    monkeypatch.setattr(sweep_module.backends, "run", counting)
+    run_sweep(small(tmp_path, trials=1))
+    with (tmp_path / "trials.csv").open("a") as f:
+        f.write("quick_connect,ground,1.0,0.0,0.0,1")  # a row cut short by a kill
+    run_sweep(small(tmp_path))
+    run_sweep(small(tmp_path))
+    assert ran == [4, 4, 0]
+    assert (tmp_path / "trials.csv").read_bytes() == (reference / "trials.csv").read_bytes()
+    with pytest.raises(SystemExit, match="jitter_s = 0.0, not 0.5"):
+        run_sweep(small(tmp_path, jitter_s=0.5))
+
+
+def test_ctrl_c_keeps_whole_rows_and_the_same_command_finishes_the_sweep(
+    reference: Path, tmp_path: Path
+) -> None:
+    cmd = [
+        sys.executable,
+        "-m",
+        "ptwl.cli",
+        "sweep",
+        "--task",
+        "quick_connect",
+        "--rtt",
+        "0,1",
+        "--trials",
+        "2",
+    ]
+    cmd += ["--think", "1", "--workers", "1", "--out", str(tmp_path)]
+    process = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    csv_path = tmp_path / "trials.csv"
+    deadline = time.monotonic() + 60.0
+    while time.monotonic() < deadline:
+        if csv_path.exists() and len(csv_path.read_text().splitlines()) >= 3:  # header + 2 trials
+            break
+        time.sleep(0.05)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 130, err
+    assert "run the same command to resume" in err
+    assert "sweep: 1/8 trials" in err  # plain progress lines when not a terminal
+    kept = read_rows(csv_path)
+    assert 2 <= len(kept) < 8 and csv_path.read_text().endswith("\n")
+    record = json.loads((tmp_path / "sweep.json").read_text())
+    assert record["trials_done"] == len(kept) and not record["complete"]
+    assert main(cmd[3:]) == 0
+    assert csv_path.read_bytes() == (reference / "trials.csv").read_bytes()
+
+
+def test_ray_runs_the_same_trials_to_the_same_bytes(reference: Path, tmp_path: Path) -> None:
+    pytest.importorskip("ray")
+    os.environ.pop("RAY_ADDRESS", None)
+    run_sweep(small(tmp_path, workers=2, backend="ray"))
+    assert (tmp_path / "trials.csv").read_bytes() == (reference / "trials.csv").read_bytes()
+    assert "ray" in json.loads((tmp_path / "sweep.json").read_text())["versions"]
+
+
+def test_ground_time_grows_linearly_with_delay_and_onboard_stays_flat(tmp_path: Path) -> None:
+    """Ferrell's move-and-wait, measured: the lid takes 5 ground commands."""
+    rows = run_sweep(
+        SweepSettings(
+            "lid", [0.0, 5.0, 10.0], 2, ["ground", "onboard"], str(tmp_path), workers=os.cpu_count() or 1
+        )
+    )
+    assert all(r["success"] for r in rows)
+    assert all(r["wait_cycles"] == 5 for r in rows if r["operator"] == "ground")
+    line = fits(rows)
+    ground, onboard = line["ground"], line["onboard"]
+    assert ground.r2 >= 0.95 and ground.slope == pytest.approx(4.0, abs=0.1)  # four waits of one RTT
+    assert abs(onboard.slope) < 0.1 * ground.slope
+    report = (tmp_path / "report.md").read_text()
+    assert f"{ground.slope:.3f} x RTT (R^2 = {ground.r2:.3f})" in report
+    assert f"onboard slope is {100.0 * onboard.slope / ground.slope:.1f} % of the ground slope" in report
+    assert "onboard is faster at every delay measured" in report  # think time makes ground slower at 0
+
+
+def test_bad_arguments_name_the_argument_and_the_range(capsys: pytest.CaptureFixture[str]) -> None:
+    for args, message in (
+        (["--rtt", "0,-1"], "each RTT must be in [0, 600] s"),
+        (["--operator", "pilot"], "operators from ground, onboard"),
+        (["--loss", "1.5"], "must be in [0, 0.9]"),
+    ):
+        with pytest.raises(SystemExit) as exit_info:
+            main(["sweep", "--task", "lid", "--out", "unused", *args])
+        assert exit_info.value.code == 2
+        assert message in capsys.readouterr().err

@@ -1,0 +1,82 @@
+"""One trial in virtual time: the ground operator waits a round trip and a think time between
+behaviors, the onboard one only once; lost messages are asked about, never waited on forever."""
+
+import pytest
+
+from experiments.sweep.operators import PATIENCE_S, THINK_SPREAD, latest_end_s
+from experiments.sweep.spec import TrialSpec
+from experiments.sweep.trial import row, run_trial, simulate
+from latency.profile import Blackout, LinkProfile, Loss
+from robot_sim.policies import policy_for
+
+TICK_S = 0.001  # the ground acts on the 1 ms tick; the robot starts a command on the next one
+
+
+def starts_and_ends(trial) -> list[tuple[float, float]]:  # type: ignore[no-untyped-def]
+    return [(s.report.started_at, s.report.ended_at) for s in trial.robot.figures.steps]
+
+
+def test_ground_waits_a_round_trip_and_its_think_time_between_behaviors() -> None:
+    spec = TrialSpec("lid", "ground", rtt_s=2.0, jitter_s=0.0, loss=0.0, seed=1, think_s=2.0)
+    trial = simulate(spec)
+    times = starts_and_ends(trial)
+    assert len(times) == 5 and trial.robot.sim.task().success
+    thinks = spec.rng("think")  # the operator's own draws, in order
+    assert times[0][0] == pytest.approx(1.0, abs=2 * TICK_S)  # the first POST's one-way trip
+    for (_, end), (start, _) in zip(times, times[1:], strict=False):
+        think = thinks.uniform(*THINK_SPREAD) * 2.0
+        assert 1.0 <= think <= 3.0
+        # down (1 s), think, up (1 s): the robot idles exactly that long
+        assert start - end == pytest.approx(2.0 + think, abs=3 * TICK_S)
+    r = row(trial)
+    assert r["operator_time_s"] == pytest.approx(times[-1][1] + 1.0, abs=2 * TICK_S)
+    assert r["task_time_s"] == pytest.approx(times[-1][1] - times[0][0])
+    assert (r["commands_sent"], r["wait_cycles"], r["requeries"]) == (5, 5, 0)
+    assert r["think_total_s"] == pytest.approx(trial.operator.think_s)
+
+
+def test_onboard_task_time_does_not_grow_with_delay_only_the_news_of_it() -> None:
+    rows = {rtt: run_trial(TrialSpec("quick_connect", "onboard", rtt, 0.0, 0.0, 3)) for rtt in (0.0, 10.0)}
+    assert rows[0.0]["success"] and rows[10.0]["success"]
+    assert rows[10.0]["task_time_s"] == pytest.approx(rows[0.0]["task_time_s"], abs=0.05)
+    # It started 5 s after the send and was known 5 s after it ended.
+    assert rows[10.0]["operator_time_s"] == pytest.approx(rows[10.0]["task_time_s"] + 10.0, abs=3 * TICK_S)
+    assert (rows[10.0]["commands_sent"], rows[10.0]["wait_cycles"]) == (1, 1)
+
+
+def test_a_post_lost_in_a_drop_blackout_is_asked_about_then_sent_again_and_run_once() -> None:
+    spec = TrialSpec("quick_connect", "ground", rtt_s=1.0, jitter_s=0.0, loss=0.0, seed=2, think_s=0.0)
+    profile = LinkProfile(
+        uplink=0.5, downlink=0.5, blackouts=[Blackout(start=0.0, duration=0.2, mode="drop")]
+    )
+    trial = simulate(spec, profile)
+    r = row(trial)
+    assert r["success"] and r["end"] == "completed"
+    assert r["lost_messages"] == 1 and r["requeries"] == 1
+    assert r["commands_sent"] == r["wait_cycles"] + 1 == r["behaviors"] + 1
+    # Asked once the report was overdue (round trip + watchdog + patience), heard "unknown" a
+    # round trip later, sent it again: it started half a round trip after that.
+    first = policy_for("quick_connect").first(trial.robot.sim.state().port).params
+    overdue = 1.0 + (latest_end_s(first) or 0.0) + PATIENCE_S
+    assert starts_and_ends(trial)[0][0] == pytest.approx(overdue + 1.0 + 0.5, abs=3 * TICK_S)
+    assert r["blackout_s"] == pytest.approx(0.2)
+
+
+@pytest.mark.parametrize("operator", ["ground", "onboard"])
+def test_with_every_event_lost_the_operator_still_finishes_by_asking(operator: str) -> None:
+    spec = TrialSpec("quick_connect", operator, rtt_s=1.0, jitter_s=0.0, loss=0.0, seed=2, think_s=0.0)
+    lossy = LinkProfile(uplink=0.5, downlink=0.5, loss=Loss(model="bernoulli", probability=1.0))
+    r = row(simulate(spec, lossy))
+    clean = run_trial(spec)
+    assert r["success"] and r["end"] == clean["end"] == "completed"
+    assert r["lost_messages"] >= r["wait_cycles"] >= 1  # every command's end event was lost
+    assert r["requeries"] >= r["wait_cycles"]  # each was learned by asking
+    assert r["operator_time_s"] > clean["operator_time_s"] + 1.0  # the cost of not hearing
+
+
+def test_the_same_settings_give_the_same_row_and_jitter_and_loss_change_it() -> None:
+    spec = TrialSpec("quick_connect", "ground", rtt_s=2.0, jitter_s=0.3, loss=0.2, seed=5, think_s=1.0)
+    first, again = run_trial(spec), run_trial(spec)
+    assert first == again
+    plain = run_trial(TrialSpec("quick_connect", "ground", 2.0, 0.0, 0.0, 5, 1.0))
+    assert first["operator_time_s"] != plain["operator_time_s"]
