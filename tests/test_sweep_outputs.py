@@ -81,7 +81,7 @@ def test_a_rerun_runs_only_the_missing_trials(
     run_sweep(small(tmp_path))
     assert ran == [4, 4, 0]
     assert (tmp_path / "trials.csv").read_bytes() == (reference / "trials.csv").read_bytes()
-    with pytest.raises(SystemExit, match="jitter_s = 0.0, not 0.5"):
+    with pytest.raises(SystemExit, match=r"jitter_s = 0\.0, not 0\.5"):
         run_sweep(small(tmp_path, jitter_s=0.5))
 
 

@@ -1,6 +1,8 @@
 """One trial in virtual time: the ground operator waits a round trip and a think time between
 behaviors, the onboard one only once; lost messages are asked about, never waited on forever."""
 
+import itertools
+
 import pytest
 
 from experiments.sweep.operators import PATIENCE_S, THINK_SPREAD, latest_end_s
@@ -23,7 +25,7 @@ def test_ground_waits_a_round_trip_and_its_think_time_between_behaviors() -> Non
     assert len(times) == 5 and trial.robot.sim.task().success
     thinks = spec.rng("think")  # the operator's own draws, in order
     assert times[0][0] == pytest.approx(1.0, abs=2 * TICK_S)  # the first POST's one-way trip
-    for (_, end), (start, _) in zip(times, times[1:], strict=False):
+    for (_, end), (start, _) in itertools.pairwise(times):
         think = thinks.uniform(*THINK_SPREAD) * 2.0
         assert 1.0 <= think <= 3.0
         # down (1 s), think, up (1 s): the robot idles exactly that long
