@@ -1,0 +1,172 @@
+"""`ptwl sweep --realtime`: one grid point through the real `ptwl serve` and `ptwl proxy`, paced
+to real time, with the same operators as the virtual-time trials, against their result.
+
+The operator objects are the same (operators.py); only what carries their requests changes:
+HTTP through the proxy (POST with the tag as `x-ptwl-sender`, GET by id) and the telemetry
+socket through the proxy for command events. The task time is read from the robot's own
+records (first command's start to last one's end, Unix time).
+"""
+
+import queue
+import statistics
+import sys
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
+
+import httpx
+
+from experiments.sweep.operators import Operator, operator_for
+from experiments.sweep.robot import Accepted, Done, Post, Request, Status
+from experiments.sweep.spec import TrialSpec
+from experiments.sweep.sweep import SweepSettings
+from experiments.sweep.trial import MAX_TRIAL_S, run_trial
+from ptwl.launcher import ServiceProcess, running_proxy, running_server
+from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
+from server.client import RobotClient, RobotError
+
+AGREEMENT = 0.05  # the real mean task time within 5 % of the virtual one
+
+
+def report_of(event: dict[str, Any]) -> BehaviorReport:
+    """A BehaviorReport from a command's status or event (the fields a policy reads)."""
+    port = event["final_port"]
+    return BehaviorReport(
+        behavior=event.get("behavior") or event["type"],
+        exit=ExitCondition(event["exit"]),
+        started_at=0.0,
+        ended_at=float(event["duration"] or 0.0),
+        peak_force=float(event["peak_force"] or 0.0),
+        peak_torque=float(event["peak_torque"] or 0.0),
+        final_wrench=tuple(event["final_wrench"] or (0.0,) * 6),
+        final_port=Pose(tuple(port["position"]), tuple(port["quaternion"])),
+        detail=event.get("detail", ""),
+    )
+
+
+class LinkedOperator:
+    """Carries one operator's requests over the real link, and what comes back to it."""
+
+    def __init__(self, link_url: str, prefix: str) -> None:
+        self.client = RobotClient(link_url)
+        self.prefix = prefix
+        self.inbox: queue.SimpleQueue[Accepted | Status | Done] = queue.SimpleQueue()
+        self.ids: dict[str, int] = {}
+        self._pool = ThreadPoolExecutor(max_workers=4)  # a request takes a round trip
+        threading.Thread(target=self._listen, daemon=True).start()
+
+    def _listen(self) -> None:
+        try:
+            for message in self.client.telemetry():
+                sender = message.get("sender") or ""
+                if (
+                    message["type"] == "command"
+                    and message["status"] == "done"
+                    and sender.startswith(self.prefix)
+                ):
+                    self.inbox.put(Done(sender.removeprefix(self.prefix), report_of(message)))
+        except Exception:  # the link closed at the end of the run: nothing more to hear
+            return
+
+    def send(self, requests: list[Request]) -> None:
+        for request in requests:
+            self._pool.submit(self._carry, request)
+
+    def _carry(self, request: Request) -> None:
+        try:
+            if isinstance(request, Post):
+                params = request.params.model_dump()
+                kind = params.pop("type")
+                accepted = self.client.command(kind, sender=self.prefix + request.tag, **params)
+                self.ids[request.tag] = accepted.id
+                self.inbox.put(Accepted(request.tag))
+                return
+            status = self._status(request.tag)
+            report = report_of(status) if status is not None and status["status"] == "done" else None
+            self.inbox.put(Status(request.tag, status is not None, report))
+        except (httpx.HTTPError, RobotError):
+            return  # lost: the operator asks again once its patience runs out
+
+    def _status(self, tag: str) -> dict[str, Any] | None:
+        if tag in self.ids:
+            return self.client.get(self.ids[tag]).model_dump()
+        mine = [c for c in self.client.commands(limit=64) if c.sender == self.prefix + tag]
+        return mine[-1].model_dump() if mine else None
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True)
+        self.client.close()
+
+
+def run_real(spec: TrialSpec, robot: ServiceProcess, link: ServiceProcess) -> dict[str, Any]:
+    """One trial on the real system; its task time from the robot's records."""
+    with RobotClient(robot.url) as direct:
+        direct.reset_scene(spec.task, spec.seed)
+        port = direct.state().port
+    prefix = f"rt{spec.seed}-{time.time_ns()}-"
+    carrier = LinkedOperator(link.url, prefix)
+    time.sleep(0.3 + spec.rtt_s / 2.0)  # the telemetry socket is open before the first send
+    operator: Operator = operator_for(spec)
+    t0 = time.monotonic()
+
+    def now() -> float:
+        return time.monotonic() - t0
+
+    x, y, z = port.position
+    w, qx, qy, qz = port.quaternion
+    carrier.send(operator.begin(0.0, Pose((x, y, z), (w, qx, qy, qz))))
+    while not operator.finished and now() < MAX_TRIAL_S:
+        wake = operator.wake_at
+        wait = 0.5 if wake is None else min(0.5, max(0.0, wake - now()))
+        try:
+            message = carrier.inbox.get(timeout=wait)
+        except queue.Empty:
+            message = None
+        if message is not None:  # stamped when it arrived, not when the wait began
+            carrier.send(operator.on_message(now(), message))
+        while (wake := operator.wake_at) is not None and wake <= now():
+            carrier.send(operator.on_wake(now()))
+    carrier.close()
+    with RobotClient(robot.url) as direct:
+        records = [c for c in direct.commands(limit=100) if (c.sender or "").startswith(prefix)]
+        success = direct.task().success
+    starts = [c.started_at for c in records if c.started_at is not None]
+    ends = [c.ended_at for c in records if c.ended_at is not None]
+    return {
+        "seed": spec.seed,
+        "success": success,
+        "end": operator.end,
+        "task_time_s": max(ends) - min(starts),
+        "operator_time_s": operator.finished_at_s,
+    }
+
+
+def cross_check(settings: SweepSettings, out: Any = sys.stdout) -> int:
+    """Run the grid point in real time and in virtual time; 0 if the mean task times agree."""
+    specs = settings.specs()
+    if len(settings.rtts_s) != 1 or len(settings.operators) != 1:
+        raise SystemExit("--realtime runs one grid point: give one --rtt and one --operator")
+    if settings.jitter_s or settings.loss or settings.profile:
+        raise SystemExit("--realtime runs a plain link: leave out --jitter, --loss and --profile")
+    half = f"{settings.rtts_s[0] / 2.0:g}"
+    real = []
+    with (
+        running_server("--scene", settings.task) as robot,
+        running_proxy(robot.url, "--uplink", half, "--downlink", half) as link,
+    ):
+        for spec in specs:
+            real.append(run_real(spec, robot, link))
+            print(f"real time: seed {spec.seed}: task time {real[-1]['task_time_s']:.2f} s", file=out)
+    virtual = [run_trial(spec) for spec in specs]
+    mean_real = statistics.fmean(r["task_time_s"] for r in real)
+    mean_virtual = statistics.fmean(r["task_time_s"] for r in virtual)
+    difference = (mean_real - mean_virtual) / mean_virtual
+    print(
+        f"{settings.task}, {settings.operators[0]}, RTT {settings.rtts_s[0]:g} s, {len(specs)} trials: "
+        f"mean task time {mean_real:.2f} s in real time, {mean_virtual:.2f} s in virtual time "
+        f"({100.0 * difference:+.1f} %; agreement within {100.0 * AGREEMENT:.0f} % "
+        f"{'holds' if abs(difference) <= AGREEMENT else 'FAILS'})",
+        file=out,
+    )
+    return 0 if abs(difference) <= AGREEMENT else 1

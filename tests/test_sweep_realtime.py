@@ -1,0 +1,31 @@
+"""The virtual-time trial against the real system: the same operator through the real `ptwl
+serve` and `ptwl proxy`, paced to real time, takes the same task time (within 5 %)."""
+
+import io
+import re
+from pathlib import Path
+
+import pytest
+
+from experiments.sweep.realtime import cross_check
+from experiments.sweep.sweep import SweepSettings
+
+
+def test_a_ground_trial_through_the_real_link_takes_the_virtual_task_time(tmp_path: Path) -> None:
+    settings = SweepSettings("quick_connect", [1.0], 1, ["ground"], str(tmp_path), think_s=1.0)
+    out = io.StringIO()
+    status = cross_check(settings, out)
+    text = out.getvalue()
+    found = re.search(r"mean task time ([\d.]+) s in real time, ([\d.]+) s in virtual time", text)
+    assert found, text
+    real, virtual = float(found[1]), float(found[2])
+    assert virtual > 8.0  # the insertion, one round trip and a think, the relieve
+    assert real == pytest.approx(virtual, rel=0.05), text
+    assert status == 0 and "holds" in text
+
+
+def test_realtime_runs_one_plain_grid_point(tmp_path: Path) -> None:
+    with pytest.raises(SystemExit, match="one --rtt and one --operator"):
+        cross_check(SweepSettings("lid", [0.0, 1.0], 1, ["ground"], str(tmp_path)))
+    with pytest.raises(SystemExit, match="leave out --jitter"):
+        cross_check(SweepSettings("lid", [1.0], 1, ["ground"], str(tmp_path), jitter_s=0.1))
