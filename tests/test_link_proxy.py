@@ -32,10 +32,15 @@ def ws(url: str) -> str:
     return url.replace("http://", "ws://") + "/api/telemetry"
 
 
+# The sockets here use max_queue=None: a client that stops reading with more than max_queue
+# messages waiting never reads the server's close frame behind them, and its close() waits out
+# close_timeout (10 s) and ends 1006. Unbounded, it keeps reading and closes in a round trip.
+
+
 async def exchange(proxy_url: str, seconds: float, send_hz: float) -> list[tuple[float, dict]]:
     """Send `send_hz` messages/s up and collect telemetry down for `seconds`; (arrival, message)."""
     received: list[tuple[float, dict]] = []
-    async with websockets.connect(ws(proxy_url), ping_interval=None) as conn:
+    async with websockets.connect(ws(proxy_url), ping_interval=None, max_queue=None) as conn:
 
         async def send() -> None:
             # On a schedule, not sleep(1/hz) after each send: that sleep overshoots by a timer
@@ -205,7 +210,7 @@ def test_profile_change_mid_stream_is_versioned(fast_server: ServiceProcess, tmp
     with running_proxy(fast_server.url, "--downlink", "1.0", "--record", str(record)) as proxy:
 
         async def run() -> None:
-            async with websockets.connect(ws(proxy.url), ping_interval=None) as conn:
+            async with websockets.connect(ws(proxy.url), ping_interval=None, max_queue=None) as conn:
                 end = time.monotonic() + 4.0
                 changed = False
                 while time.monotonic() < end:
@@ -236,7 +241,7 @@ def test_upstream_restart_gives_502_then_recovers(tmp_path: Path) -> None:
             assert httpx.get(proxy.url + "/api/health").status_code == 200
 
             async def closed_by_upstream_stop() -> tuple[int, str]:
-                async with websockets.connect(ws(proxy.url), ping_interval=None) as conn:
+                async with websockets.connect(ws(proxy.url), ping_interval=None, max_queue=None) as conn:
                     await conn.recv()
                     first.stop()
                     with pytest.raises(websockets.ConnectionClosed):
@@ -254,7 +259,7 @@ def test_upstream_restart_gives_502_then_recovers(tmp_path: Path) -> None:
                 assert httpx.get(proxy.url + "/api/health").status_code == 200
 
                 async def reconnect() -> dict:
-                    async with websockets.connect(ws(proxy.url), ping_interval=None) as conn:
+                    async with websockets.connect(ws(proxy.url), ping_interval=None, max_queue=None) as conn:
                         return json.loads(await asyncio.wait_for(conn.recv(), 5.0))
 
                 assert asyncio.run(reconnect())["type"] == "state"
