@@ -13,7 +13,7 @@ from typing import Any
 import pytest
 
 from experiments.sweep import sweep as sweep_module
-from experiments.sweep.summary import fits
+from experiments.sweep.summary import Fit, break_even_s, fits
 from experiments.sweep.sweep import SweepSettings, run_sweep
 from experiments.sweep.table import NAMES, read_rows
 from ptwl.cli import main
@@ -140,10 +140,10 @@ def test_ground_time_grows_linearly_with_delay_and_onboard_stays_flat(tmp_path: 
     assert all(r["wait_cycles"] == 5 for r in rows if r["operator"] == "ground")
     line = fits(rows)
     ground, onboard = line["ground"], line["onboard"]
-    assert ground.r2 >= 0.95 and ground.slope == pytest.approx(4.0, abs=0.1)  # four waits of one RTT
+    assert ground.r2_means >= 0.95 and ground.slope == pytest.approx(4.0, abs=0.1)  # four waits of one RTT
     assert abs(onboard.slope) < 0.1 * ground.slope
     report = (tmp_path / "report.md").read_text()
-    assert f"{ground.slope:.3f} x RTT (R^2 = {ground.r2:.3f})" in report
+    assert f"{ground.slope:.3f} x RTT (R^2 = {ground.r2_means:.3f} against the mean at each RTT" in report
     assert f"onboard slope is {100.0 * onboard.slope / ground.slope:.1f} % of the ground slope" in report
     assert "onboard is faster at every delay measured" in report  # think time makes ground slower at 0
 
@@ -158,3 +158,15 @@ def test_bad_arguments_name_the_argument_and_the_range(capsys: pytest.CaptureFix
             main(["sweep", "--task", "lid", "--out", "unused", *args])
         assert exit_info.value.code == 2
         assert message in capsys.readouterr().err
+
+
+def test_the_fit_judges_linearity_on_the_means_and_says_where_onboard_wins() -> None:
+    # Two seeds, one needing two more waits than the other: each line has slope 4 s/s.
+    fit = Fit.of([0.0, 0.0, 10.0, 10.0], [10.0, 30.0, 50.0, 70.0])
+    assert fit is not None
+    assert (fit.slope, fit.intercept) == pytest.approx((4.0, 20.0))
+    assert fit.r2_means == pytest.approx(1.0) and fit.r2_trials == pytest.approx(0.8)
+    ground, onboard = Fit(2.0, 10.0, 1.0, 1.0), Fit(0.1, 20.0, 1.0, 1.0)
+    assert break_even_s(ground, onboard) == pytest.approx(10.0 / 1.9)
+    assert break_even_s(ground, Fit(2.0, 0.0, 1.0, 1.0)) is None
+    assert Fit.of([1.0, 1.0], [2.0, 3.0]) is None  # one RTT: no line

@@ -44,7 +44,7 @@ def _interval_plot(
                 [fit.intercept + fit.slope * x for x in xs],
                 "--",
                 color=colour,
-                label=f"{operator} fit: {fit.slope:.2f} s/s, R$^2$ {fit.r2:.3f}",
+                label=f"{operator} fit: {fit.slope:.2f} s/s, R$^2$ {fit.r2_means:.3f} (means)",
             )
     ax.set_xlabel("round trip [s]")
     ax.set_ylabel(ylabel)
@@ -81,7 +81,8 @@ def findings(rows: list[dict[str, Any]]) -> list[str]:
     for operator, fit in task_fits.items():
         lines.append(
             f"- **{operator}**: task time = {fit.intercept:.2f} s + {fit.slope:.3f} x RTT "
-            f"(R^2 = {fit.r2:.3f}); the operator knew the outcome "
+            f"(R^2 = {fit.r2_means:.3f} against the mean at each RTT, {fit.r2_trials:.3f} over single "
+            "trials); the operator knew the outcome "
             f"{operator_fits[operator].slope:.3f} s later per second of RTT "
             f"(intercept {operator_fits[operator].intercept:.2f} s)."
         )

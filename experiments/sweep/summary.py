@@ -35,21 +35,33 @@ def interval(values: list[float]) -> tuple[float, float, float]:
 
 @dataclass(frozen=True)
 class Fit:
-    """y = intercept + slope x by least squares over every trial, and its R^2."""
+    """y = intercept + slope x by least squares over every trial. `r2_means`: how well the line
+    explains the mean at each x (is the trend linear?); `r2_trials`: how well it explains single
+    trials (seeds that need more commands scatter around it). With the same number of trials at
+    every x, the line is also the least-squares line through the means."""
 
     slope: float
     intercept: float
-    r2: float
+    r2_means: float
+    r2_trials: float
 
     @classmethod
     def of(cls, x: list[float], y: list[float]) -> "Fit | None":
         if len(set(x)) < 2:
             return None
-        slope, intercept = np.polyfit(x, y, 1)
-        residual = np.asarray(y) - (intercept + slope * np.asarray(x))
-        total = float(np.sum((np.asarray(y) - np.mean(y)) ** 2))
-        r2 = 1.0 - float(np.sum(residual**2)) / total if total > 0.0 else 1.0
-        return cls(float(slope), float(intercept), r2)
+        slope, intercept = (float(v) for v in np.polyfit(x, y, 1))
+        by_x: dict[float, list[float]] = {}
+        for xi, yi in zip(x, y, strict=True):
+            by_x.setdefault(xi, []).append(yi)
+        xs = list(by_x)
+        means = [float(np.mean(v)) for v in by_x.values()]
+        return cls(slope, intercept, _r2(xs, means, slope, intercept), _r2(x, y, slope, intercept))
+
+
+def _r2(x: list[float], y: list[float], slope: float, intercept: float) -> float:
+    residual = np.asarray(y) - (intercept + slope * np.asarray(x))
+    total = float(np.sum((np.asarray(y) - np.mean(y)) ** 2))
+    return 1.0 - float(np.sum(residual**2)) / total if total > 0.0 else 1.0
 
 
 def fits(rows: list[dict[str, Any]], y: str = "task_time_s") -> dict[str, Fit]:
