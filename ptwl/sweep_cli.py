@@ -9,10 +9,7 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-from experiments.sweep.backends import BACKENDS
-from experiments.sweep.plots import findings
-from experiments.sweep.spec import OPERATORS
-from experiments.sweep.sweep import SweepSettings, run_sweep
+from experiments.sweep.spec import BACKENDS, OPERATORS, SweepSettings
 from latency.named import named_profiles
 from latency.profile import MAX_DELAY_S
 from robot_sim.policies import POLICIES
@@ -68,6 +65,10 @@ def settings_from(args: argparse.Namespace, argv: list[str]) -> SweepSettings:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
+    # Imported here: matplotlib and the sweep machinery would add ~0.8 s to every `ptwl` start.
+    from experiments.sweep.plots import findings
+    from experiments.sweep.sweep import run_sweep
+
     settings = settings_from(args, sys.argv[1:])
     if args.realtime:
         from experiments.sweep.realtime import cross_check

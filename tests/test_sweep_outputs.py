@@ -13,8 +13,9 @@ from typing import Any
 import pytest
 
 from experiments.sweep import sweep as sweep_module
+from experiments.sweep.spec import SweepSettings
 from experiments.sweep.summary import Fit, break_even_s, fits
-from experiments.sweep.sweep import SweepSettings, run_sweep
+from experiments.sweep.sweep import run_sweep
 from experiments.sweep.table import NAMES, read_rows
 from ptwl.cli import main
 

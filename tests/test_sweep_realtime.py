@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from experiments.sweep.realtime import cross_check
-from experiments.sweep.sweep import SweepSettings
+from experiments.sweep.spec import SweepSettings
 
 
 def test_a_ground_trial_through_the_real_link_takes_the_virtual_task_time(tmp_path: Path) -> None:

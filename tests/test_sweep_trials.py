@@ -82,3 +82,22 @@ def test_the_same_settings_give_the_same_row_and_jitter_and_loss_change_it() -> 
     assert first == again
     plain = run_trial(TrialSpec("quick_connect", "ground", 2.0, 0.0, 0.0, 5, 1.0))
     assert first["operator_time_s"] != plain["operator_time_s"]
+
+
+def test_a_hold_blackout_delays_the_command_to_its_end_and_a_named_profile_applies() -> None:
+    spec = TrialSpec("quick_connect", "ground", rtt_s=1.0, jitter_s=0.0, loss=0.0, seed=2, think_s=0.0)
+    held = LinkProfile(uplink=0.5, downlink=0.5, blackouts=[Blackout(start=0.0, duration=3.0, mode="hold")])
+    trial = simulate(spec, held)
+    assert starts_and_ends(trial)[0][0] == pytest.approx(3.0 + 0.5, abs=2 * TICK_S)  # held, then sent
+    assert row(trial)["success"] and row(trial)["lost_messages"] == 0
+    lossy = TrialSpec("quick_connect", "ground", 1.0, 0.0, 0.0, 2, 0.0, profile="earth_moon_lossy")
+    profile = lossy.link_profile()
+    assert (profile.uplink, profile.downlink) == (0.5, 0.5)  # the RTT replaces its delays
+    assert profile.loss.model == "gilbert_elliott" and profile.blackouts[0].period == 300.0
+    assert (
+        profile.jitter.seed
+        != TrialSpec("quick_connect", "ground", 1.0, 0.0, 0.0, 3, 0.0, "earth_moon_lossy")
+        .link_profile()
+        .jitter.seed
+    )
+    assert run_trial(lossy)["success"]

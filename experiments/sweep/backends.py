@@ -10,8 +10,6 @@ from typing import Any
 from experiments.sweep.spec import TrialSpec
 from experiments.sweep.trial import run_trial
 
-BACKENDS = ("local", "ray")
-
 
 def _ignore_sigint() -> None:
     """Workers leave Ctrl-C to the parent, which stops handing out trials and keeps the rows."""

@@ -19,8 +19,7 @@ import httpx
 
 from experiments.sweep.operators import Operator, operator_for
 from experiments.sweep.robot import Accepted, Done, Post, Request, Status
-from experiments.sweep.spec import TrialSpec
-from experiments.sweep.sweep import SweepSettings
+from experiments.sweep.spec import SweepSettings, TrialSpec
 from experiments.sweep.trial import MAX_TRIAL_S, run_trial
 from ptwl.launcher import ServiceProcess, running_proxy, running_server
 from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose

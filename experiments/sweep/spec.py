@@ -1,13 +1,14 @@
 """A trial's settings, the link it runs over, and the grid of trials a sweep runs."""
 
 import random
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from latency.named import named_profile
 from latency.profile import LinkProfile
 
 OPERATORS = ("ground", "onboard")
+BACKENDS = ("local", "ray")
 # The fields that name a trial: a row of trials.csv with the same values is the same trial.
 KEY_FIELDS = ("task", "operator", "rtt_s", "jitter_s", "loss", "seed")
 
@@ -38,17 +39,20 @@ class TrialSpec:
     def link_profile(self) -> LinkProfile:
         base = named_profile(self.profile) if self.profile else LinkProfile()
         draw = self.rng("link").randrange(2**32)
+        # A named profile's jitter and loss apply with this trial's seed (else every trial of
+        # the sweep would draw the same delays); --jitter and --loss replace them.
+        jitter = (
+            {"distribution": "uniform", "amount": self.jitter_s, "seed": draw}
+            if self.jitter_s > 0.0
+            else {**base.jitter.model_dump(), "seed": draw}
+        )
+        loss = (
+            {"model": "bernoulli", "probability": self.loss, "seed": draw}
+            if self.loss > 0.0
+            else {**base.loss.model_dump(), "seed": draw}
+        )
         return base.merged(
-            {
-                "uplink": self.rtt_s / 2.0,
-                "downlink": self.rtt_s / 2.0,
-                "jitter": {"distribution": "uniform", "amount": self.jitter_s, "seed": draw}
-                if self.jitter_s > 0.0
-                else base.jitter.model_dump(),
-                "loss": {"model": "bernoulli", "probability": self.loss, "seed": draw}
-                if self.loss > 0.0
-                else base.loss.model_dump(),
-            }
+            {"uplink": self.rtt_s / 2.0, "downlink": self.rtt_s / 2.0, "jitter": jitter, "loss": loss}
         )
 
 
@@ -79,3 +83,34 @@ def grid(
         for rtt in rtts_s
         for i in range(trials)
     ]
+
+
+@dataclass
+class SweepSettings:
+    task: str
+    rtts_s: list[float]
+    trials: int
+    operators: list[str]
+    out: str
+    jitter_s: float = 0.0
+    loss: float = 0.0
+    think_s: float = 2.0
+    seed: int = 0
+    profile: str | None = None
+    workers: int = 1
+    backend: str = "local"
+    ray_address: str | None = None
+    argv: list[str] = field(default_factory=list)
+
+    def specs(self) -> list[TrialSpec]:
+        return grid(
+            self.task,
+            self.rtts_s,
+            self.trials,
+            self.operators,
+            self.jitter_s,
+            self.loss,
+            self.seed,
+            self.think_s,
+            self.profile,
+        )

@@ -13,7 +13,7 @@ import json
 import platform
 import sys
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -23,43 +23,12 @@ from tqdm import tqdm
 
 from experiments.sweep import backends
 from experiments.sweep.plots import write_report
-from experiments.sweep.spec import TrialSpec, grid
+from experiments.sweep.spec import SweepSettings, TrialSpec
 from experiments.sweep.summary import write_summary
 from experiments.sweep.table import RowWriter, read_rows, row_key, write_sorted
 
 # What a trial is: a directory's trials are only reusable under the same values.
 TRIAL_SETTINGS = ("task", "jitter_s", "loss", "think_s", "seed", "profile")
-
-
-@dataclass
-class SweepSettings:
-    task: str
-    rtts_s: list[float]
-    trials: int
-    operators: list[str]
-    out: str
-    jitter_s: float = 0.0
-    loss: float = 0.0
-    think_s: float = 2.0
-    seed: int = 0
-    profile: str | None = None
-    workers: int = 1
-    backend: str = "local"
-    ray_address: str | None = None
-    argv: list[str] = field(default_factory=list)
-
-    def specs(self) -> list[TrialSpec]:
-        return grid(
-            self.task,
-            self.rtts_s,
-            self.trials,
-            self.operators,
-            self.jitter_s,
-            self.loss,
-            self.seed,
-            self.think_s,
-            self.profile,
-        )
 
 
 class Progress:
