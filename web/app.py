@@ -420,8 +420,11 @@ class ConsoleApp:
         for part in (self.bar, self.feed, self.link_poller):
             if part is not None:
                 part.close()
-        self.front_door.close()
+        # viser first, while the front door still carries its close handshake to the browsers:
+        # closed the other way round, viser waited out its close timeout (6 s) on pipes nobody
+        # read any more.
         self.server.stop()
+        self.front_door.close()
         self.client.close()
 
 
