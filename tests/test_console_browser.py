@@ -153,7 +153,9 @@ def test_console_says_when_the_robot_restarts_and_reconnects(browser) -> None:  
         robot.stop()
         wait_text(page, "no telemetry", 15.0)
         with running_server("--scene", "free_space", port=server_port):
-            wait_text(page, "robot restarted", 20.0)
+            # "robot restarted at": the new run seen; "the link or robot restarted" is the 1012
+            # close the old one sent as it went down.
+            wait_text(page, "robot restarted at", 20.0)
             # The cut-off command is lost, never shown as a later command's result.
             assert command_id(page) == cut_off and command_status(page) == "lost"
             set_fields(page, "Duration [s]", 1.0)

@@ -6,9 +6,11 @@ import itertools
 import pytest
 
 from experiments.sweep.operators import PATIENCE_S, THINK_SPREAD, latest_end_s
+from experiments.sweep.robot import Accepted, Post, Query, Status, VirtualRobot
 from experiments.sweep.spec import TrialSpec
-from experiments.sweep.trial import row, run_trial, simulate
+from experiments.sweep.trial import blackout_s, row, run_trial, simulate
 from latency.profile import Blackout, LinkProfile, Loss
+from robot_sim.params import PtwlParams
 from robot_sim.policies import policy_for
 
 TICK_S = 0.001  # the ground acts on the 1 ms tick; the robot starts a command on the next one
@@ -101,3 +103,31 @@ def test_a_hold_blackout_delays_the_command_to_its_end_and_a_named_profile_appli
         .jitter.seed
     )
     assert run_trial(lossy)["success"]
+
+
+def test_a_post_that_arrives_twice_runs_once_and_a_status_says_what_the_robot_knows() -> None:
+    robot = VirtualRobot("quick_connect", 0)
+    params = PtwlParams(translation=[0.0, 0.0, 0.005], duration=0.2)
+    assert robot.handle(Post("ground-1", params)) == Accepted("ground-1")
+    assert robot.handle(Post("ground-1", params)) == Accepted("ground-1")  # a resend that did arrive
+    assert len(robot.queue) == 1
+    assert robot.handle(Query("ground-1")) == Status("ground-1", True, None)
+    assert robot.handle(Query("ground-2")) == Status("ground-2", False, None)  # never got it
+    done = None
+    while done is None:
+        done = robot.tick()
+    assert done.tag == "ground-1" and robot.handle(Query("ground-1")).report is done.report
+
+
+def test_blackout_time_counts_each_repeat_of_a_window_inside_the_trial() -> None:
+    every_100 = LinkProfile(blackouts=[Blackout(start=10.0, duration=5.0, period=100.0)])
+    assert blackout_s(every_100, 9.0) == 0.0
+    assert blackout_s(every_100, 12.0) == pytest.approx(2.0)
+    assert blackout_s(every_100, 250.0) == pytest.approx(15.0)  # 10-15, 110-115, 210-215
+    assert blackout_s(every_100, 212.5) == pytest.approx(12.5)
+
+
+def test_think_times_are_paired_across_delays() -> None:
+    """The same seed thinks the same at every RTT: only the delay differs between grid points."""
+    near, far = (simulate(TrialSpec("quick_connect", "ground", rtt, 0.0, 0.0, 4, 2.0)) for rtt in (0.0, 5.0))
+    assert near.operator.think_s == far.operator.think_s > 0.0

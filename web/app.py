@@ -323,13 +323,14 @@ class ConsoleApp:
         lost = self.history.robot_instance(instance)
         if lost is None:
             return
-        self._restart_note = f" · robot restarted at {time.strftime('%H:%M:%S')}"
         if any(v is self._commanded for v in lost) and self.view is not None and self.board is not None:
             self.view.show_commanded(None)
             self.board.show_commanded(None)
         labels = ", ".join(f"{v.behavior.upper()} {v.label}" for v in lost) or "none"
         self._notify("Robot restarted", f"commands it had not finished are lost: {labels}", "red")
         self._show_command(self.history.latest())
+        # Last: the bar (its own thread) says "restarted" only once the command line says "lost".
+        self._restart_note = f" · robot restarted at {time.strftime('%H:%M:%S')}"
 
     def _on_link(self, text: str) -> None:
         up = text == "connected"
