@@ -5,6 +5,7 @@ import shutil
 import subprocess
 import sys
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import httpx
@@ -21,6 +22,21 @@ MAX_EXAMPLES = 12
 def stack() -> Iterator[tuple[ServiceProcess, ServiceProcess]]:
     with running_server("--scene", "free_space") as robot, running_proxy(robot.url) as link:
         yield robot, link
+
+
+@pytest.fixture(scope="module")
+def fuzzed(
+    stack: tuple[ServiceProcess, ServiceProcess],
+) -> Iterator[dict[str, subprocess.CompletedProcess[str]]]:
+    """Both runs at once, each against its own robot (the link's is `stack`'s; the direct one a
+    second server), so neither sees the other's commands: ~13 s instead of ~23 s one after the
+    other."""
+    with running_server("--scene", "free_space") as direct, ThreadPoolExecutor(max_workers=2) as pool:
+        runs = {
+            "robot": pool.submit(schemathesis, direct.url),
+            "link": pool.submit(schemathesis, stack[1].url),
+        }
+        yield {through: run.result() for through, run in runs.items()}
 
 
 def schemathesis(url: str) -> subprocess.CompletedProcess[str]:
@@ -50,9 +66,10 @@ def schemathesis(url: str) -> subprocess.CompletedProcess[str]:
 
 
 @pytest.mark.parametrize("through", ["robot", "link"])
-def test_schemathesis_finds_nothing(stack: tuple[ServiceProcess, ServiceProcess], through: str) -> None:
-    robot, link = stack
-    result = schemathesis(robot.url if through == "robot" else link.url)
+def test_schemathesis_finds_nothing(
+    fuzzed: dict[str, subprocess.CompletedProcess[str]], through: str
+) -> None:
+    result = fuzzed[through]
     assert result.returncode == 0, result.stdout[-6000:] + result.stderr[-2000:]
     assert "passed" in result.stdout
 
