@@ -5,7 +5,7 @@ advancing, both commands are untouched, and a valid command still runs to its ex
 """
 
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import httpx
 import pytest
@@ -132,16 +132,25 @@ def busy(robot: RobotClient) -> Iterator[tuple[RobotClient, int, int]]:
     """One long command running and one queued behind it."""
     running = robot.ptwl(translation=[0.0, 0.0, -0.05], duration=60.0).id
     queued = robot.ptwl(translation=[0.0, 0.0, -0.01], duration=1.0).id
-    time.sleep(0.1)
-    assert robot.get(running).status == "running"
+    assert until(lambda: robot.get(running).status == "running", 2.0)  # it starts within a 2 ms batch
     yield robot, running, queued
     robot.stop()
 
 
+def until(condition: Callable[[], bool], timeout_s: float) -> bool:
+    """Poll `condition` every 10 ms; whether it came true within `timeout_s`."""
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.01)
+    return True
+
+
 def assert_nothing_lost(robot: RobotClient, running: int, queued: int, sim_time_before: float) -> None:
-    time.sleep(0.2)
+    assert until(lambda: robot.health().sim_time > sim_time_before + 0.1, 2.0)  # still advancing
     health = robot.health()
-    assert health.status == "ok" and health.sim_time > sim_time_before + 0.1  # still advancing
+    assert health.status == "ok"
     assert health.queued == 1
     assert robot.get(running).status == "running" and robot.get(queued).status == "queued"
     robot.stop()
