@@ -15,8 +15,23 @@ PORT_TEXT = re.compile(r"port \((-?[\d.]+), (-?[\d.]+), (-?[\d.]+)\) mm")
 
 def open_console(browser: object, url: str, control: bool = True, viewport: tuple[int, int] = (1100, 720)):  # type: ignore[no-untyped-def]
     """A page on the console; with `control`, it takes control (one commander at a time)."""
+    return _ready(_load(browser, url, viewport), control)
+
+
+def open_consoles(browser: object, url: str, *controls: bool) -> list:  # type: ignore[type-arg]
+    """Several pages loading at once (each takes ~2.5 s of the browser's time, mostly its own
+    renderer's); taken control of in the order given."""
+    pages = [_load(browser, url, (1100, 720)) for _ in controls]
+    return [_ready(page, control) for page, control in zip(pages, controls, strict=True)]
+
+
+def _load(browser: object, url: str, viewport: tuple[int, int]):  # type: ignore[no-untyped-def]
     page = browser.new_page(viewport={"width": viewport[0], "height": viewport[1]})  # type: ignore[attr-defined]
-    page.goto(url)
+    page.goto(url, wait_until="commit")
+    return page
+
+
+def _ready(page, control: bool):  # type: ignore[no-untyped-def]
     page.get_by_role("button", name="Send cmd").wait_for(timeout=60_000)
     page.wait_for_function("document.querySelector('#ptwl-telemetry')?.dataset.seq > 0", timeout=30_000)
     if control:

@@ -11,7 +11,16 @@ import pytest
 
 from ptwl.launcher import ServiceProcess, running_console, running_proxy, running_server
 from server.client import RobotClient
-from tests.console_page import command_id, inputs_for, open_console, port_mm, send, set_fields, wait_status
+from tests.console_page import (
+    command_id,
+    inputs_for,
+    open_console,
+    open_consoles,
+    port_mm,
+    send,
+    set_fields,
+    wait_status,
+)
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
@@ -80,8 +89,7 @@ def test_the_age_keeps_counting_through_a_blackout_and_turns_amber_then_red(brow
 def test_two_tabs_have_their_own_fields_and_only_the_one_in_control_sends(browser, stack, calm) -> None:  # type: ignore[no-untyped-def]
     """On main tab B showed (25, 7, 0) while C showed (25, 93.3, -15), and Send in C sent B's."""
     robot, _, console = stack
-    b = open_console(browser, console.url, control=False)
-    c = open_console(browser, console.url, control=True)
+    b, c = open_consoles(browser, console.url, False, True)
     set_fields(b, "Translation [mm]", 25, 7, 0)
     set_fields(c, "Translation [mm]", 0, 20, -15)
     time.sleep(1.0)  # give any cross-tab sync time to happen
@@ -369,8 +377,7 @@ def test_a_tasks_state_machine_runs_from_its_tab_and_shows_each_step(browser, st
     start one. (The plug with the outlet nearly under it: in at once, then relieved.)"""
     robot, _, console = stack
     httpx.post(robot.url + "/api/scene", json={"name": "plug", "seed": 4}).raise_for_status()
-    watcher = open_console(browser, console.url, control=False)
-    page = open_console(browser, console.url)
+    watcher, page = open_consoles(browser, console.url, False, True)
     page.get_by_role("tab", name="Tasks").click()
     watcher.get_by_role("tab", name="Tasks").click()
     assert watcher.get_by_role("button", name="Run state machine").is_disabled()

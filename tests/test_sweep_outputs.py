@@ -134,7 +134,7 @@ def test_ground_time_grows_linearly_with_delay_and_onboard_stays_flat(tmp_path: 
     """Ferrell's move-and-wait, measured: the lid takes 5 ground commands."""
     rows = run_sweep(
         SweepSettings(
-            "lid", [0.0, 5.0, 10.0], 2, ["ground", "onboard"], str(tmp_path), workers=os.cpu_count() or 1
+            "lid", [0.0, 5.0, 10.0], 1, ["ground", "onboard"], str(tmp_path), workers=os.cpu_count() or 1
         )
     )
     assert all(r["success"] for r in rows)
