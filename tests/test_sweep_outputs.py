@@ -149,6 +149,15 @@ def test_ground_time_grows_linearly_with_delay_and_onboard_stays_flat(tmp_path: 
     assert "onboard is faster at every delay measured" in report  # think time makes ground slower at 0
 
 
+def test_ray_missing_is_refused_before_anything_is_written(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(sweep_module.backends.importlib.util, "find_spec", lambda name: None)
+    with pytest.raises(SystemExit, match=r'pip install -e "\.\[ray\]"'):
+        run_sweep(small(tmp_path / "out", backend="ray"))
+    assert not (tmp_path / "out").exists()
+
+
 def test_bad_arguments_name_the_argument_and_the_range(capsys: pytest.CaptureFixture[str]) -> None:
     for args, message in (
         (["--rtt", "0,-1"], "each RTT must be in [0, 600] s"),

@@ -1,6 +1,7 @@
 """Where trials run: a local process pool (default) or Ray tasks. Each trial is a pure function
 of its settings (trial.run_trial), so both give the same rows; they come back as they end."""
 
+import importlib.util
 import os
 import signal
 from collections.abc import Iterator
@@ -31,10 +32,8 @@ def run_local(specs: list[TrialSpec], workers: int) -> Iterator[dict[str, Any]]:
 def run_ray(specs: list[TrialSpec], workers: int, address: str | None) -> Iterator[dict[str, Any]]:
     """On the cluster at `address` (or RAY_ADDRESS), else a local one on loopback with `workers`
     CPUs. A remote cluster's nodes need this package installed (`pip install -e ".[ray]"`)."""
-    try:
-        import ray
-    except ImportError:
-        raise SystemExit('the ray backend needs Ray: pip install -e ".[ray]"') from None
+    import ray  # the optional extra: available() said so before the sweep began
+
     address = address or os.environ.get("RAY_ADDRESS") or None
     started = not ray.is_initialized()
     if started:
@@ -53,6 +52,12 @@ def run_ray(specs: list[TrialSpec], workers: int, address: str | None) -> Iterat
     finally:
         if started:
             ray.shutdown()
+
+
+def available(backend: str) -> None:
+    """Refuse, before anything is written, a backend whose library is not installed."""
+    if backend == "ray" and importlib.util.find_spec("ray") is None:
+        raise SystemExit('the ray backend needs Ray: pip install -e ".[ray]"')
 
 
 def run(specs: list[TrialSpec], backend: str, workers: int, address: str | None) -> Iterator[dict[str, Any]]:

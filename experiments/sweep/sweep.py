@@ -108,6 +108,7 @@ def _write_json(out: Path, settings: SweepSettings, specs: list[TrialSpec], done
 
 def run_sweep(settings: SweepSettings, stream: TextIO = sys.stderr) -> list[dict[str, Any]]:
     """Run what is missing and write every output; the rows of this grid, in grid order."""
+    backends.available(settings.backend)
     out = Path(settings.out)
     out.mkdir(parents=True, exist_ok=True)
     _check_directory(out, settings)
