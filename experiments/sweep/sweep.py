@@ -115,7 +115,7 @@ def run_sweep(settings: SweepSettings, stream: TextIO = sys.stderr) -> list[dict
     specs = settings.specs()
     order = [s.key() for s in specs]
     csv_path = out / "trials.csv"
-    have = {row_key(r) for r in read_rows(csv_path)}
+    have = {row_key(r) for r in write_sorted(csv_path, read_rows(csv_path), order)}
     todo = [s for s in specs if s.key() not in have]
     started = time.monotonic()
     _write_json(out, settings, specs, len(specs) - len(todo), 0.0)
@@ -129,10 +129,8 @@ def run_sweep(settings: SweepSettings, stream: TextIO = sys.stderr) -> list[dict
         writer.close()
         progress.close()
         _write_json(out, settings, specs, progress.done, time.monotonic() - started)
-    rows = read_rows(csv_path)
-    write_sorted(csv_path, rows, order)
     wanted = set(order)
-    mine = [r for r in read_rows(csv_path) if row_key(r) in wanted]
+    mine = [r for r in write_sorted(csv_path, read_rows(csv_path), order) if row_key(r) in wanted]
     table = write_summary(out, mine)
     write_report(out, mine, table)
     return mine

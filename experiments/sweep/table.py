@@ -1,9 +1,10 @@
 """trials.csv: one row per trial, its columns and types, appended as trials end, read back.
 
 A row is written whole (one write, then flush), so an interrupted sweep leaves complete rows
-only; a final line without its newline (a kill mid-write) is ignored when read back. When the
-grid is complete the file is rewritten in grid order (to a temporary file, then renamed), so
-the same arguments give the same bytes whatever the number of workers or backend.
+only; a final line without its newline (a kill mid-write) is ignored when read back. Before a
+sweep appends, and when it ends, the file is rewritten in grid order (to a temporary file, then
+renamed): the header and whole rows only, so the same arguments give the same bytes whatever
+the number of workers or backend.
 """
 
 import csv
@@ -89,18 +90,10 @@ def read_rows(path: Path) -> list[dict[str, Any]]:
 
 
 class RowWriter:
-    """Appends rows to trials.csv as trials end (the header first if the file is new)."""
+    """Appends rows to trials.csv as trials end (the file is whole: see `write_sorted`)."""
 
     def __init__(self, path: Path) -> None:
-        existing = read_rows(path)
-        self._file = path.open("w" if not existing else "a")
-        if not existing:
-            self._file.write(",".join(NAMES) + "\n")
-        else:  # drop a partial last line: rewrite what was whole
-            self._file.close()
-            write_sorted(path, existing, [row_key(r) for r in existing])
-            self._file = path.open("a")
-        self._file.flush()
+        self._file = path.open("a")
 
     def append(self, row: dict[str, Any]) -> None:
         self._file.write(_line(row))
@@ -110,8 +103,11 @@ class RowWriter:
         self._file.close()
 
 
-def write_sorted(path: Path, rows: Iterable[dict[str, Any]], order: list[tuple[str, ...]]) -> None:
-    """Rewrite the file with `rows` in `order` (keys), atomically."""
+def write_sorted(
+    path: Path, rows: Iterable[dict[str, Any]], order: list[tuple[str, ...]]
+) -> list[dict[str, Any]]:
+    """Rewrite the file (header and whole rows only) with `rows` in `order` (keys; others
+    after), atomically; the rows as written."""
     rank = {key: i for i, key in enumerate(order)}
     ordered = sorted(rows, key=lambda r: rank.get(row_key(r), len(rank)))
     tmp = path.with_suffix(".csv.tmp")
@@ -121,3 +117,4 @@ def write_sorted(path: Path, rows: Iterable[dict[str, Any]], order: list[tuple[s
         out.flush()
         os.fsync(out.fileno())
     os.replace(tmp, path)
+    return ordered
