@@ -68,8 +68,11 @@ class Operator(ABC):
 
     @property
     def wake_at(self) -> float | None:
-        times = [t for t in (self._next[0] if self._next else None, self._deadline()) if t is not None]
-        return min(times) if times else None
+        """A command waiting out a think time, else the pending one's deadline (never both: a
+        think starts when a report ends the pending command)."""
+        if self._next is not None:
+            return self._next[0]
+        return self.pending.deadline_s if self.pending is not None else None
 
     def on_message(self, now: float, message: Reply | Done) -> list[Request]:
         pending = self.pending
@@ -104,9 +107,6 @@ class Operator(ABC):
         return self.finished_at_s is not None
 
     # ---------------------------------------------------------------------- helpers
-    def _deadline(self) -> float | None:
-        return self.pending.deadline_s if self.pending is not None else None
-
     def _patience(self, params: CommandParams) -> float:
         latest = latest_end_s(params)
         return self.spec.rtt_s + (POLL_S if latest is None else latest + PATIENCE_S)
