@@ -1,55 +1,87 @@
-"""Optional per-message record, one JSON object a line.
+"""Optional per-message record: JSON lines, or MCAP when the file ends in `.mcap`.
 
-Line-buffered: each record reaches the file as it is written, so a crash (kill -9) loses at most
-the line being written. At 2 x 50 Hz telemetry that is ~100 write calls a second, nothing next
-to the proxy's own work.
+JSON lines are line-buffered: each record reaches the file as it is written, so a crash (kill -9)
+loses at most the line being written. An MCAP record (recording/writer.py, topic
+`/link/messages`) loses at most its last chunk, under 1 s. At 2 x 50 Hz telemetry that is ~100
+records a second, nothing next to the proxy's own work.
 """
 
 import json
+import time
 from pathlib import Path
-from typing import IO
+from typing import IO, Any, Protocol
 
 from latency.delay_line import Dropped, Entry
 
 
-class Recorder:
+def released_fields(entry: Entry, now: float) -> dict[str, Any]:
+    return {
+        "seq": entry.seq,
+        "direction": entry.direction,
+        "kind": entry.kind,
+        "size": entry.size,
+        "arrival": entry.arrival,
+        "release": now,
+        "configured_delay": entry.configured_delay,
+        "realized_delay": now - entry.arrival,
+        "profile_version": entry.version,
+        "drop_reason": None,
+    }
+
+
+def dropped_fields(drop: Dropped) -> dict[str, Any]:
+    return {
+        "seq": drop.seq,
+        "direction": drop.direction,
+        "kind": drop.kind,
+        "size": drop.size,
+        "arrival": drop.arrival,
+        "release": None,
+        "configured_delay": None,
+        "realized_delay": None,
+        "profile_version": drop.version,
+        "drop_reason": drop.reason,
+    }
+
+
+class Recorder(Protocol):
+    def released(self, entry: Entry, now: float) -> None: ...
+    def dropped(self, drop: Dropped) -> None: ...
+    def close(self) -> None: ...
+
+
+class JsonLinesRecorder:
     def __init__(self, path: Path) -> None:
         self._file: IO[str] = path.open("a", buffering=1)
 
     def released(self, entry: Entry, now: float) -> None:
-        self._write(
-            {
-                "seq": entry.seq,
-                "direction": entry.direction,
-                "kind": entry.kind,
-                "size": entry.size,
-                "arrival": entry.arrival,
-                "release": now,
-                "configured_delay": entry.configured_delay,
-                "realized_delay": now - entry.arrival,
-                "profile_version": entry.version,
-                "drop_reason": None,
-            }
-        )
+        self._file.write(json.dumps(released_fields(entry, now)) + "\n")
 
     def dropped(self, drop: Dropped) -> None:
-        self._write(
-            {
-                "seq": drop.seq,
-                "direction": drop.direction,
-                "kind": drop.kind,
-                "size": drop.size,
-                "arrival": drop.arrival,
-                "release": None,
-                "configured_delay": None,
-                "realized_delay": None,
-                "profile_version": drop.version,
-                "drop_reason": drop.reason,
-            }
-        )
-
-    def _write(self, record: dict[str, object]) -> None:
-        self._file.write(json.dumps(record) + "\n")
+        self._file.write(json.dumps(dropped_fields(drop)) + "\n")
 
     def close(self) -> None:
         self._file.close()
+
+
+class McapRecorder:
+    """Log times are Unix nanoseconds when the record was made, so a link file lines up with the
+    robot's recording of the same session; arrival and release stay on the link's clock."""
+
+    def __init__(self, path: Path) -> None:
+        from recording.writer import SessionRecorder, versions  # only an MCAP record needs it
+
+        self._file = SessionRecorder(path, {"source": "ptwl proxy", **versions()})
+
+    def released(self, entry: Entry, now: float) -> None:
+        self._file.link(released_fields(entry, now), time.time_ns())
+
+    def dropped(self, drop: Dropped) -> None:
+        self._file.link(dropped_fields(drop), time.time_ns())
+
+    def close(self) -> None:
+        self._file.close()
+
+
+def open_recorder(path: Path) -> Recorder:
+    return McapRecorder(path) if path.suffix == ".mcap" else JsonLinesRecorder(path)

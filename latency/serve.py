@@ -12,7 +12,7 @@ from latency.link import Link
 from latency.named import named_profile
 from latency.profile import LinkProfile
 from latency.proxy import LinkProxy
-from latency.record import Recorder
+from latency.record import open_recorder
 
 
 @dataclass(frozen=True)
@@ -37,7 +37,7 @@ class ProxyConfig:
 def serve_proxy(config: ProxyConfig) -> None:
     check_token_setting(config.token, config.host)
     profile = config.initial_profile()
-    recorder = Recorder(config.record) if config.record else None
+    recorder = open_recorder(config.record) if config.record else None
     family, kind, proto, _, address = socket.getaddrinfo(config.host, config.port, type=socket.SOCK_STREAM)[0]
     sock = socket.socket(family, kind, proto)
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)

@@ -19,6 +19,7 @@ import sys
 from collections.abc import Generator
 from pathlib import Path
 
+from ptwl.recording_cli import add_recording_parsers
 from ptwl.sweep_cli import add_sweep_parser
 from ptwl.task_cli import add_task_parser
 from robot_sim.behaviors import Behavior, BehaviorReport, behavior_for
@@ -149,6 +150,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
         fault_injection=args.fault_injection,
         allow_hosts=tuple(args.allow_host),
         allow_origins=tuple(args.allow_origin),
+        record=args.record,
     )
     serve(config)
     return 0
@@ -225,6 +227,9 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--seed", type=int, default=None)
     serve.add_argument("--telemetry-hz", type=float, default=50.0, help="state messages per second")
     serve.add_argument("--token", default=os.environ.get("PTWL_TOKEN"), help="access token (or PTWL_TOKEN)")
+    serve.add_argument(
+        "--record", type=Path, metavar="FILE.mcap", help="record the session to this new MCAP file"
+    )
     serve.add_argument("--fault-injection", action="store_true", help=argparse.SUPPRESS)
     _access_flags(serve)
     serve.set_defaults(func=cmd_serve)
@@ -235,7 +240,9 @@ def build_parser() -> argparse.ArgumentParser:
     proxy.add_argument("--profile", help="a named profile from config/links.toml")
     proxy.add_argument("--uplink", type=float, help="[s] one-way delay, operator to robot")
     proxy.add_argument("--downlink", type=float, help="[s] one-way delay, robot to operator")
-    proxy.add_argument("--record", type=Path, help="append a JSON line per message to this file")
+    proxy.add_argument(
+        "--record", type=Path, help="record each message's delay: MCAP if FILE ends in .mcap, else JSON lines"
+    )
     proxy.add_argument(
         "--token", default=os.environ.get("PTWL_TOKEN"), help="needed on every route and socket (PTWL_TOKEN)"
     )
@@ -243,6 +250,7 @@ def build_parser() -> argparse.ArgumentParser:
     proxy.set_defaults(func=cmd_proxy)
     add_task_parser(sub)
     add_sweep_parser(sub)
+    add_recording_parsers(sub)
     sub.add_parser("scenes", help="list scenes").set_defaults(func=cmd_scenes)
     sub.add_parser("presets", help="print stiffness and dither presets").set_defaults(func=cmd_presets)
     return parser

@@ -8,6 +8,7 @@ import numpy as np
 from robot_sim.model import ARM_PREFIX, TOOL_PREFIX
 
 N_JOINTS = 6
+JOINT_NAMES = tuple(f"{ARM_PREFIX}j{i + 1}" for i in range(N_JOINTS))  # in joint_positions order
 
 
 @dataclass(frozen=True)
@@ -28,7 +29,7 @@ class ArmLayout:
 
     @staticmethod
     def from_model(model: mujoco.MjModel) -> "ArmLayout":
-        joints = [model.joint(f"{ARM_PREFIX}j{i + 1}") for i in range(N_JOINTS)]
+        joints = [model.joint(name) for name in JOINT_NAMES]
         dof_adr = np.array([j.dofadr[0] for j in joints])
         # The hot loop takes the first six Jacobian columns without a gather; scenes must add
         # free bodies after the arm.

@@ -21,10 +21,11 @@ CommandParams = BehaviorParams | StateMachineParams
 
 @dataclass(frozen=True)
 class Ended:
-    """What a behavior's end meant for the command: a machine's step (if one ran it) and, when
-    the command is over, its report (a machine's whole run as one report)."""
+    """What a behavior's end meant for the command: the step it was (a machine's, or a behavior
+    command's only one) and, when the command is over, its report (a machine's whole run as
+    one report)."""
 
-    step: StepRecord | None
+    step: StepRecord
     command: BehaviorReport | None
 
 
@@ -32,6 +33,7 @@ class CommandExecutor:
     def __init__(self, sim: Simulation) -> None:
         self.sim = sim
         self.machine: Machine | None = None  # the running state machine command's, if any
+        self._behavior: BehaviorParams | None = None  # the running behavior command's, if any
 
     def start(self, params: CommandParams) -> Pose | None:
         """Start a command now; the absolute goal it resolved (a PTWL's), if it has one."""
@@ -40,13 +42,16 @@ class CommandExecutor:
             self.sim.start(behavior_for(self.machine.start(self.sim.state().port).params))
             return None
         behavior = behavior_for(params)
+        self._behavior = params
         self.sim.start(behavior)
         return behavior.goal_pose()
 
     def behavior_ended(self, report: BehaviorReport) -> Ended:
         machine = self.machine
         if machine is None:
-            return Ended(None, report)
+            assert self._behavior is not None, "a behavior ended that no command started"
+            params, self._behavior = self._behavior, None
+            return Ended(StepRecord(0, params, "", report), report)
         step = machine.advance(report)
         if step is not None:
             self.sim.start(behavior_for(step.params))

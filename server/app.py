@@ -13,6 +13,7 @@ from server.commands import CommandBook, CommandRecord
 from server.config import BODY_LIMIT_BYTES, HISTORY_MAX, QUEUE_MAX, ServerConfig
 from server.errors import install_error_handlers
 from server.models import COMMON_RESPONSES
+from server.recording import GEOMETRY_WAIT_S, RecordingThread, session_metadata
 from server.routes import commands, debug, robot, scenes, telemetry
 from server.runner import SimRunner, command_event
 from server.telemetry import Broadcaster
@@ -31,18 +32,30 @@ def create_app(config: ServerConfig) -> FastAPI:
             if done:
                 waiters.notify(command_id)
 
+        recording: RecordingThread | None = None
+
         def on_change(record: CommandRecord) -> None:
             # Any thread, under the book's lock: serialise now (a snapshot), deliver on the loop.
-            loop.call_soon_threadsafe(announce, command_event(record), record.id, record.status == "done")
+            text = command_event(record)
+            loop.call_soon_threadsafe(announce, text, record.id, record.status == "done")
+            if recording is not None:
+                recording.command(text)
+
+        def publish(text: str) -> None:
+            loop.call_soon_threadsafe(broadcaster.publish, text)
+            if recording is not None:
+                recording.state(text)
 
         book = CommandBook(QUEUE_MAX, HISTORY_MAX, on_change)
-        runner = SimRunner(
-            config.scene,
-            config.seed,
-            config.telemetry_hz,
-            book,
-            publish=lambda text: loop.call_soon_threadsafe(broadcaster.publish, text),
-        )
+        runner = SimRunner(config.scene, config.seed, config.telemetry_hz, book, publish)
+        if config.record is not None:
+            recording = RecordingThread(
+                config.record,
+                session_metadata(config),
+                geometry=lambda: runner.call(runner.geometry).result(GEOMETRY_WAIT_S),
+            )
+            runner.on_step = recording.step
+            recording.start()
         app.state.broadcaster = broadcaster
         app.state.waiters = waiters
         app.state.book = book
@@ -52,6 +65,8 @@ def create_app(config: ServerConfig) -> FastAPI:
             yield
         finally:
             runner.close()
+            if recording is not None:
+                recording.close()
 
     app = FastAPI(
         title="ptwl robot server",

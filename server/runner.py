@@ -18,7 +18,9 @@ from typing import Any
 from robot_sim.behaviors import BehaviorReport
 from robot_sim.executor import CommandExecutor
 from robot_sim.gains import Gains
-from robot_sim.geometry import body_poses, moving_bodies
+from robot_sim.geometry import body_poses, moving_bodies, scene_geometry
+from robot_sim.params import StateMachineParams
+from robot_sim.policies.run import StepRecord
 from robot_sim.scenes import TaskProgress, get_scene
 from robot_sim.sim import Simulation
 from server.commands import CommandBook, CommandRecord
@@ -58,6 +60,7 @@ class SimRunner:
         self._next_telemetry = 0.0
         self.latest_state: dict[str, Any] = self._state()
         self.last_fault: str | None = None
+        self.on_step: Callable[[int, StepRecord], None] | None = None  # (simulation thread) a recorder's
 
     # ----------------------------------------------------------------- lifecycle
     def start(self) -> None:
@@ -93,6 +96,10 @@ class SimRunner:
         self._next_telemetry = 0.0
         self.latest_state = self._state()
         return stopped
+
+    def geometry(self) -> dict[str, Any]:
+        """(simulation thread) The loaded scene's geoms and bodies (GET /api/geometry)."""
+        return {"scene": self.sim.scene.name, **scene_geometry(self.sim.model, self.sim.data)}
 
     def real_time_lag(self) -> float:
         """[s] wall time minus sim time since the scene (re)started; ~0 when keeping up."""
@@ -136,9 +143,12 @@ class SimRunner:
 
     def _command_done(self, report: BehaviorReport) -> None:
         """A behavior ended: the command's end, or a state machine's step (executor.py)."""
+        running = self.book.running
         ended = self._executor.behavior_ended(report)
-        if ended.step is not None:
-            self.book.step_done(ended.step)
+        if running is not None and self.on_step is not None:
+            self.on_step(running.id, ended.step)
+        if running is not None and isinstance(running.params, StateMachineParams):
+            self.book.step_done(ended.step)  # a behavior command's one step is the command itself
         if ended.command is not None:
             self.book.finish(ended.command)  # the book announces it
 

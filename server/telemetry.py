@@ -6,6 +6,7 @@ it may reconnect and will get the latest state.
 """
 
 import asyncio
+import time
 from dataclasses import dataclass, field
 
 CLIENT_BACKLOG = 256  # messages (~5 s at 50 Hz) a client may fall behind before it is dropped
@@ -43,3 +44,8 @@ class Broadcaster:
             except asyncio.QueueFull:
                 sub.too_slow = True
                 self.dropped_clients += 1
+
+
+def stamped(text: str) -> str:
+    """A message (a JSON object's text) with `sent_at`, the wall clock now, added as it leaves."""
+    return f'{text[:-1]}, "sent_at": {time.time():.6f}}}'

@@ -30,6 +30,7 @@ from web.feed import TelemetryFeed
 from web.front_door import FrontDoor, admit_only_through
 from web.history import CommandHistory, CommandView
 from web.link_poller import LinkPoller
+from web.playback import Playback, replay_status
 from web.robot_view import RobotView
 from web.seat import ControlSeat, operator_name
 from web.status_bar import BarInputs, Level, StatusBar
@@ -83,6 +84,7 @@ class ConsoleApp:
         self.bar: StatusBar | None = None
         self.feed: TelemetryFeed | None = None
         self.link_poller: LinkPoller | None = None
+        self.playback: Playback | None = None  # when the robot is a recording
 
     @property
     def url(self) -> str:
@@ -101,9 +103,11 @@ class ConsoleApp:
                 scenes_call = pool.submit(self.client.scenes)
                 geometry_call = pool.submit(self.client.geometry)
                 tasks_call = pool.submit(self.client.tasks)
+                replay_call = pool.submit(replay_status, self.robot_url, self.token)
                 try:
                     presets, scene_list = presets_call.result(), scenes_call.result()
                     geometry, tasks = geometry_call.result(), tasks_call.result()
+                    replay = replay_call.result()
                     break
                 except (RobotError, httpx.HTTPError) as err:
                     if time.monotonic() > deadline:
@@ -118,6 +122,8 @@ class ConsoleApp:
         self.bar = StatusBar(self.server.gui, self._bar_inputs, self._on_level)
         scene_names = [s.name for s in scene_list]
         self.board = Board(self.server.gui, scene_names, geometry.scene, self.defaults.plot_s)
+        if replay is not None:
+            self.playback = Playback(self.server.gui, self.robot_url, self.token, replay, self._replay_jumped)
         self.bar.stop.on_click(lambda event: self.stop(event.client))
         self.board.reset_scene.on_click(lambda _: self.reset_scene())
         self.seat.on_change(self._seat_changed)
@@ -130,6 +136,8 @@ class ConsoleApp:
         self.feed.start()
         self.link_poller.start()
         self.bar.start()
+        if self.playback is not None:
+            self.playback.start()
 
     # ---------------------------------------------------------------- desks
     def _client_connected(self, client: viser.ClientHandle) -> None:
@@ -264,7 +272,7 @@ class ConsoleApp:
             self._state = state
             self._arrived = arrived
         self._check_instance(state["instance"])
-        if previous is not None and state["seq"] != previous["seq"] + 1:
+        if previous is not None and state["seq"] > previous["seq"] + 1:
             self._reconcile_soon()  # messages were lost: an end event may be among them
         if state["scene"] != self.scene_name:
             self.scene_name = state["scene"]
@@ -342,6 +350,20 @@ class ConsoleApp:
         if self.board is not None:
             self.board.link.content = text
 
+    def _replay_jumped(self) -> None:
+        """A replay seek: the history and plots become what they were at the new time."""
+        try:
+            records = self.client.commands(limit=RECORDS_ON_RECONNECT)
+        except (RobotError, httpx.HTTPError):
+            return
+        self.history.replace([r.model_dump() for r in records])
+        self._commanded = None
+        if self.board is not None and self.view is not None:
+            self.board.plots.clear()
+            self.view.show_commanded(None)
+            self.board.show_commanded(None)
+        self._show_command(self.history.latest())
+
     def _reconcile_soon(self) -> None:
         """Re-read the robot's records in the background (at most one re-read at a time)."""
         if self._reconciling.acquire(blocking=False):
@@ -418,7 +440,7 @@ class ConsoleApp:
 
     def close(self) -> None:
         self._closed = True
-        for part in (self.bar, self.feed, self.link_poller):
+        for part in (self.bar, self.feed, self.link_poller, self.playback):
             if part is not None:
                 part.close()
         # viser first, while the front door still carries its close handshake to the browsers:

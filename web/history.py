@@ -127,6 +127,17 @@ class CommandHistory:
                     ended.append(view)
         return ended
 
+    def replace(self, records: list[dict[str, Any]]) -> None:
+        """Become exactly these records (GET /api/commands): a replay jumped to another time, so
+        what was shown may not have happened yet."""
+        with self._lock:
+            self._views, self._by_id, self._early = [], {}, {}
+            for record in records:
+                view = CommandView(0, record["type"], "queued", id=int(record["id"]))
+                _apply(view, {**record, "behavior": record["type"]})
+                self._views.append(view)
+                self._by_id[view.id] = view  # type: ignore[index]
+
     def live(self) -> list[CommandView]:
         """Commands this console shows as queued or running."""
         with self._lock:

@@ -107,6 +107,8 @@ class WrenchPlots:
     def add(self, sim_time: float, wrench: list[float]) -> None:
         if self._samples and sim_time < self._samples[-1][0]:
             self.clear()  # sim time restarted: a scene reset or a fault reload
+        elif self._samples and sim_time == self._samples[-1][0]:
+            return  # the same state again (a paused replay repeats it): nothing new to plot
         self._samples.append((sim_time, *wrench))
         while self._samples[-1][0] - self._samples[0][0] > self.window_s:
             self._samples.popleft()

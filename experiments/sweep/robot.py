@@ -11,7 +11,6 @@ from dataclasses import dataclass, field
 
 from robot_sim.behaviors import BehaviorReport
 from robot_sim.executor import CommandExecutor, CommandParams
-from robot_sim.params import StateMachineParams
 from robot_sim.policies.run import StepRecord
 from robot_sim.sim import Simulation
 
@@ -115,12 +114,7 @@ class VirtualRobot:
         assert self.running is not None
         figures.at_last_end = (figures.force_sum, figures.torque_sum, figures.ticks)
         ended = self.executor.behavior_ended(report)
-        step = ended.step
-        if step is None:
-            params = self.running.params
-            assert not isinstance(params, StateMachineParams)  # a machine's steps come with ended.step
-            step = StepRecord(len(figures.steps), params, "", report)
-        figures.steps.append(step)
+        figures.steps.append(ended.step)
         if ended.command is None:
             return None
         done = Done(self.running.tag, ended.command)

@@ -92,9 +92,13 @@ class Machine:
 
 
 def trial_metrics(steps: list[StepRecord]) -> dict[str, Any]:
-    """The paper's per-trial figures: peaks, run time, behaviors by kind, PTWLs by exit (the
-    gripper's closes and opens counted apart: not behaviors)."""
-    reports = [s.report for s in steps]
+    return report_metrics([s.report for s in steps])
+
+
+def report_metrics(reports: list[BehaviorReport]) -> dict[str, Any]:
+    """The paper's per-trial figures from the reports of every behavior run, in order: peaks,
+    run time, behaviors by kind, PTWLs by exit (the gripper's closes and opens counted apart:
+    not behaviors)."""
     ptwl_exits = [r.exit.value for r in reports if r.behavior == "ptwl"]
     return {
         "max_force_n": max((r.peak_force for r in reports), default=0.0),

@@ -2,7 +2,6 @@
 
 from fastapi import APIRouter
 
-from robot_sim.geometry import scene_geometry
 from robot_sim.policies import POLICIES
 from robot_sim.scenes import SCENES
 from server.models import SIM_RESPONSES, GeometryModel, SceneModel, SceneRequest, StopResult, TaskInfoModel
@@ -40,8 +39,4 @@ async def reset_scene(body: SceneRequest, runner: Runner) -> StopResult:
 async def geometry(runner: Runner) -> GeometryModel:
     """The loaded scene's geoms and bodies, to draw it; moving bodies' poses come with telemetry."""
 
-    def read() -> GeometryModel:
-        data = scene_geometry(runner.sim.model, runner.sim.data)
-        return GeometryModel(scene=runner.sim.scene.name, **data)
-
-    return await on_sim_thread(runner, read)
+    return GeometryModel(**await on_sim_thread(runner, runner.geometry))

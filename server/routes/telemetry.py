@@ -6,11 +6,10 @@ measure how old it is on arrival.
 
 import asyncio
 import contextlib
-import time
 
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 
-from server.telemetry import CLIENT_BACKLOG, Broadcaster
+from server.telemetry import CLIENT_BACKLOG, Broadcaster, stamped
 
 router = APIRouter(tags=["telemetry"])
 
@@ -42,7 +41,7 @@ async def telemetry(ws: WebSocket) -> None:
                 await ws.close(CLOSE_TOO_SLOW, f"client too slow: fell {CLIENT_BACKLOG} messages behind")
                 return
             text = next_message.result()
-            await ws.send_text(f'{text[:-1]}, "sent_at": {time.time():.6f}}}')
+            await ws.send_text(stamped(text))
     except (WebSocketDisconnect, RuntimeError):
         return
     finally:

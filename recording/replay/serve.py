@@ -1,0 +1,39 @@
+"""Serve a recording as the robot (`ptwl replay-serve`, started by `ptwl replay`)."""
+
+import signal
+from pathlib import Path
+
+import uvicorn
+
+from guard.access import AccessPolicy
+from recording.reader import read
+from recording.replay.app import create_replay_app
+from recording.replay.player import Player
+from recording.replay.timeline import Timeline
+from server.serve import bind
+
+
+def load(path: Path) -> Timeline:
+    recording = read(path)
+    timeline = Timeline(recording)
+    if not recording.complete:
+        print(f"ptwl replay: {path} was cut short ({recording.problem}); replaying what is whole", flush=True)
+    return timeline
+
+
+def serve_replay(path: Path, host: str, port: int, play: bool, speed: float) -> None:
+    timeline = load(path)
+    player = Player(timeline.start_ns, timeline.end_ns)
+    player.set(playing=play, speed=speed)
+    sock = bind(host, port)
+    bound_host, bound_port = sock.getsockname()[0:2]
+    print(
+        f"ptwl replay-serve: {path.name} ({timeline.duration_s:.1f} s) as a robot on "
+        f"http://{bound_host}:{bound_port}",
+        flush=True,
+    )
+    app = create_replay_app(timeline, player, AccessPolicy(host, bound_port))
+    server = uvicorn.Server(uvicorn.Config(app, log_level="warning", lifespan="off"))
+    for sig in (signal.SIGINT, signal.SIGTERM):  # uvicorn re-raises after its graceful stop
+        signal.signal(sig, lambda signum, frame: None)
+    server.run(sockets=[sock])
