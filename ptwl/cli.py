@@ -76,7 +76,8 @@ def _stop_on_sigterm(signum: int, frame: object) -> None:
 
 
 def cmd_up(args: argparse.Namespace) -> int:
-    from ptwl.up import up
+    from ptwl.up import link_record, up
+    from recording.paths import check_record_path
 
     if args.rtt < 0:
         raise ConfigError(f"--rtt must be >= 0 s, got {args.rtt:g}")
@@ -85,7 +86,10 @@ def cmd_up(args: argparse.Namespace) -> int:
         if args.profile
         else ["--uplink", f"{args.rtt / 2}", "--downlink", f"{args.rtt / 2}"]
     )
-    return up(args.scene, link_args, args.server_port, args.proxy_port, args.console_port)
+    if args.record is not None:
+        check_record_path(args.record)
+        check_record_path(link_record(args.record))
+    return up(args.scene, link_args, args.server_port, args.proxy_port, args.console_port, args.record)
 
 
 def cmd_console(args: argparse.Namespace) -> int:
@@ -204,6 +208,12 @@ def build_parser() -> argparse.ArgumentParser:
     up.add_argument("--server-port", type=int, default=8000)
     up.add_argument("--proxy-port", type=int, default=8001)
     up.add_argument("--console-port", type=int, default=8080)
+    up.add_argument(
+        "--record",
+        type=Path,
+        metavar="FILE.mcap",
+        help="record the robot's session (and the link's to FILE.link.mcap)",
+    )
     up.set_defaults(func=cmd_up)
     sim = sub.add_parser("sim", help="the robot alone, headless, in real time, printing its status")
     sim.add_argument("--scene", choices=list(SCENES), help="default: surface (sleeve_on_peg with --demo)")

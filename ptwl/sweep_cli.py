@@ -60,6 +60,7 @@ def settings_from(args: argparse.Namespace, argv: list[str]) -> SweepSettings:
         workers=args.workers,
         backend=args.backend,
         ray_address=args.ray_address,
+        record=args.record,
         argv=argv,
     )
 
@@ -110,6 +111,11 @@ def add_sweep_parser(sub: "argparse._SubParsersAction[argparse.ArgumentParser]")
     sweep.add_argument("--workers", type=_ranged(int, 1, 1024), default=os.cpu_count() or 1)
     sweep.add_argument("--backend", choices=BACKENDS, default="local")
     sweep.add_argument("--ray-address", default=None, help="an existing Ray cluster (default: RAY_ADDRESS)")
+    sweep.add_argument(
+        "--record",
+        action="store_true",
+        help="one MCAP per trial in OUT/recordings (ptwl report/replay read it)",
+    )
     sweep.add_argument(
         "--realtime",
         action="store_true",

@@ -12,6 +12,7 @@ import threading
 import time
 from collections import deque
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from ptwl.launcher import ServiceProcess, start
 
@@ -66,18 +67,20 @@ def up(
     server_port: int = 8000,
     proxy_port: int = 8001,
     console_port: int = 8080,
+    record: Path | None = None,
 ) -> int:
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda signum, frame: stop.set())
     robot_url, link_url = f"http://127.0.0.1:{server_port}", f"http://127.0.0.1:{proxy_port}"
+    serve_args = ("serve", "--port", str(server_port), "--scene", scene)
+    proxy_args = ("proxy", "--upstream", robot_url, "--port", str(proxy_port), *link_args)
+    link_file = link_record(record) if record is not None else None
     children = [
-        Child(
-            "robot server", ("serve", "--port", str(server_port), "--scene", scene), "/api/health", "[robot] "
-        ),
+        Child("robot server", (*serve_args, *_record_args(record, 0)), "/api/health", "[robot] "),
         Child(
             "link proxy",
-            ("proxy", "--upstream", robot_url, "--port", str(proxy_port), *link_args),
+            (*proxy_args, *_record_args(link_file, 0)),
             "/_link/profile",
             "[link]  ",
         ),
@@ -114,6 +117,10 @@ def up(
                     )
                     return 1
                 child.restarts += 1
+                if child is children[0]:  # a restart records into a file of its own
+                    child.args = (*serve_args, *_record_args(record, child.restarts))
+                elif child is children[1]:
+                    child.args = (*proxy_args, *_record_args(link_file, child.restarts))
                 print(
                     f"ptwl up: the {child.name} exited with code {code}; restarting it "
                     f"(restart {child.restarts})",
@@ -131,3 +138,15 @@ def up(
     finally:
         for child in reversed(children):
             child.stop()
+
+
+def link_record(record: Path) -> Path:
+    """`ptwl up --record S.mcap`: the link's per-message delays go to S.link.mcap."""
+    return record.with_suffix(".link.mcap")
+
+
+def _record_args(record: Path | None, restarts: int) -> tuple[str, ...]:
+    """A child's recording: S.mcap, then S.restart1.mcap, ... after restarts (never overwritten)."""
+    if record is None:
+        return ()
+    return ("--record", str(record if restarts == 0 else record.with_suffix(f".restart{restarts}.mcap")))

@@ -17,12 +17,12 @@ from typing import Any
 
 from robot_sim.behaviors import BehaviorReport
 from robot_sim.executor import CommandExecutor
-from robot_sim.gains import Gains
-from robot_sim.geometry import body_poses, moving_bodies, scene_geometry
+from robot_sim.geometry import moving_bodies, scene_geometry
 from robot_sim.params import StateMachineParams
 from robot_sim.policies.run import StepRecord
-from robot_sim.scenes import TaskProgress, get_scene
+from robot_sim.scenes import get_scene
 from robot_sim.sim import Simulation
+from robot_sim.telemetry import state_fields
 from server.commands import CommandBook, CommandRecord
 from server.pacing import RealTimePacer
 
@@ -154,23 +154,11 @@ class SimRunner:
 
     # ----------------------------------------------------------------- telemetry
     def _state(self) -> dict[str, Any]:
-        state = self.sim.state()
         running = self.book.running
         return {
-            "sim_time": state.sim_time,
-            "port": state.port.as_dict(),
-            "attractor": state.attractor.as_dict(),
-            "wrench": list(state.wrench),
-            "joint_positions": list(state.joint_positions),
+            **state_fields(self.sim, self._moving),
             "active_command": running.id if running else None,
-            "scene": state.scene,
             "instance": self.book.instance,
-            "manipulability": state.manipulability,
-            "faults": self.sim.fault_count,
-            "limited": state.limited,
-            "bodies": body_poses(self.sim.model, self.sim.data, self._moving),
-            "task": task_fields(self.sim.task()),
-            "gains": _gains_fields(self.sim.controller.gains),
         }
 
     def _publish_state(self) -> None:
@@ -180,19 +168,6 @@ class SimRunner:
         self._next_telemetry += self._period
         if self._next_telemetry < self.sim.time:  # fell behind (dropped backlog): no burst
             self._next_telemetry = self.sim.time + self._period
-
-
-def _gains_fields(gains: Gains) -> dict[str, Any]:
-    return {"stiffness": gains.stiffness.tolist(), "damping": gains.damping.tolist(), "frame": gains.frame}
-
-
-def task_fields(progress: TaskProgress) -> dict[str, Any]:
-    """The task predicate for telemetry; a non-finite progress (a fault mid-evaluation) is null,
-    so every message stays strict JSON."""
-    task = dict(progress.__dict__)
-    if not math.isfinite(task["progress"]):
-        task["progress"] = None
-    return task
 
 
 def command_event(record: CommandRecord) -> str:

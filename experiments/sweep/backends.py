@@ -17,11 +17,13 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def run_local(specs: list[TrialSpec], workers: int) -> Iterator[dict[str, Any]]:
+def run_local(
+    specs: list[TrialSpec], workers: int, record_dir: str | None = None
+) -> Iterator[dict[str, Any]]:
     if not specs:
         return
     with ProcessPoolExecutor(max_workers=workers, initializer=_ignore_sigint) as pool:
-        futures = [pool.submit(run_trial, spec) for spec in specs]
+        futures = [pool.submit(run_trial, spec, record_dir) for spec in specs]
         try:
             for future in as_completed(futures):
                 yield future.result()
@@ -29,9 +31,12 @@ def run_local(specs: list[TrialSpec], workers: int) -> Iterator[dict[str, Any]]:
             pool.shutdown(wait=True, cancel_futures=True)  # Ctrl-C: the running ones finish
 
 
-def run_ray(specs: list[TrialSpec], workers: int, address: str | None) -> Iterator[dict[str, Any]]:
+def run_ray(
+    specs: list[TrialSpec], workers: int, address: str | None, record_dir: str | None = None
+) -> Iterator[dict[str, Any]]:
     """On the cluster at `address` (or RAY_ADDRESS), else a local one on loopback with `workers`
-    CPUs. A remote cluster's nodes need this package installed (`pip install -e ".[ray]"`)."""
+    CPUs. A remote cluster's nodes need this package installed (`pip install -e ".[ray]"`), and
+    recordings land on the disk of the node that ran the trial."""
     import ray  # the optional extra: available() said so before the sweep began
 
     address = address or os.environ.get("RAY_ADDRESS") or None
@@ -45,7 +50,7 @@ def run_ray(specs: list[TrialSpec], workers: int, address: str | None) -> Iterat
             ray.init(address=address, log_to_driver=False)
     try:
         remote = ray.remote(num_cpus=1)(run_trial)
-        pending = [remote.remote(spec) for spec in specs]
+        pending = [remote.remote(spec, record_dir) for spec in specs]
         while pending:
             ready, pending = ray.wait(pending, num_returns=1)
             yield ray.get(ready[0])
@@ -60,7 +65,9 @@ def available(backend: str) -> None:
         raise SystemExit('the ray backend needs Ray: pip install -e ".[ray]"')
 
 
-def run(specs: list[TrialSpec], backend: str, workers: int, address: str | None) -> Iterator[dict[str, Any]]:
+def run(
+    specs: list[TrialSpec], backend: str, workers: int, address: str | None, record_dir: str | None = None
+) -> Iterator[dict[str, Any]]:
     if backend == "ray":
-        return run_ray(specs, workers, address)
-    return run_local(specs, workers)
+        return run_ray(specs, workers, address, record_dir)
+    return run_local(specs, workers, record_dir)

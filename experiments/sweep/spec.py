@@ -28,6 +28,11 @@ class TrialSpec:
         """As written in trials.csv (repr of floats: exact)."""
         return tuple(cell(getattr(self, name)) for name in KEY_FIELDS)
 
+    def file_stem(self) -> str:
+        """The trial's file name without suffix, from its key: lid_ground_rtt2.0_j0.0_l0.0_s3."""
+        task, operator, rtt, jitter, loss, seed = self.key()
+        return f"{task}_{operator}_rtt{rtt}_j{jitter}_l{loss}_s{seed}"
+
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
 
@@ -100,6 +105,7 @@ class SweepSettings:
     workers: int = 1
     backend: str = "local"
     ray_address: str | None = None
+    record: bool = False  # one MCAP per trial in out/recordings (only the trials this run runs)
     argv: list[str] = field(default_factory=list)
 
     def specs(self) -> list[TrialSpec]:

@@ -28,6 +28,7 @@ from experiments.sweep.summary import write_summary
 from experiments.sweep.table import RowWriter, read_rows, row_key, write_sorted
 
 # What a trial is: a directory's trials are only reusable under the same values.
+RECORDINGS = "recordings"  # --record: one MCAP per trial, named by TrialSpec.file_stem()
 TRIAL_SETTINGS = ("task", "jitter_s", "loss", "think_s", "seed", "profile")
 
 
@@ -122,7 +123,11 @@ def run_sweep(settings: SweepSettings, stream: TextIO = sys.stderr) -> list[dict
     writer = RowWriter(csv_path)
     progress = Progress(len(specs), len(specs) - len(todo), stream)
     try:
-        for row in backends.run(todo, settings.backend, settings.workers, settings.ray_address):
+        record_dir = None
+        if settings.record:
+            (out / RECORDINGS).mkdir(exist_ok=True)
+            record_dir = str((out / RECORDINGS).resolve())
+        for row in backends.run(todo, settings.backend, settings.workers, settings.ray_address, record_dir):
             writer.append(row)
             progress.update()
     finally:

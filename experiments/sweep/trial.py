@@ -15,9 +15,11 @@ loss) comes from the trial's settings, so a trial gives the same row on any work
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
+from pathlib import Path
 from typing import Any
 
 from experiments.sweep.operators import Operator, operator_for
+from experiments.sweep.recorder import TrialRecorder
 from experiments.sweep.robot import Done, Reply, Request, VirtualRobot
 from experiments.sweep.spec import TrialSpec
 from latency.clock import SimulatedLink
@@ -54,13 +56,15 @@ class Trial:
     lost: int  # messages the link lost
 
 
-def simulate(spec: TrialSpec, profile: LinkProfile | None = None) -> Trial:
+def simulate(spec: TrialSpec, profile: LinkProfile | None = None, record: Path | None = None) -> Trial:
     """Run the trial to its end (the operator knows the outcome) or MAX_TRIAL_S; `profile`
-    replaces the spec's link (tests give blackouts at chosen times)."""
+    replaces the spec's link (tests give blackouts at chosen times); `record` an MCAP file to
+    record it into."""
     robot = VirtualRobot(spec.task, spec.seed)
     sim = robot.sim
     profile = profile or spec.link_profile()
     link = SimulatedLink(profile)
+    recorder = TrialRecorder(record, spec, robot, link) if record is not None else None
     operator = operator_for(spec)
     inbox: list[Request] = []
     lost = [0]
@@ -90,15 +94,20 @@ def simulate(spec: TrialSpec, profile: LinkProfile | None = None) -> Trial:
             down(robot.handle(request))
         inbox.clear()
         done = robot.tick()
+        if recorder is not None:
+            recorder.observe(done)
         if done is not None:
             link.advance_to(sim.time)
             down(done)
+    if recorder is not None:
+        recorder.close()
     return Trial(spec, robot, operator, profile, lost[0])
 
 
-def run_trial(spec: TrialSpec) -> dict[str, Any]:
-    """The trial's row of trials.csv (table.COLUMNS)."""
-    return row(simulate(spec))
+def run_trial(spec: TrialSpec, record_dir: str | None = None) -> dict[str, Any]:
+    """The trial's row of trials.csv (table.COLUMNS); with `record_dir`, its MCAP there too."""
+    record = Path(record_dir) / f"{spec.file_stem()}.mcap" if record_dir is not None else None
+    return row(simulate(spec, record=record))
 
 
 def row(trial: Trial) -> dict[str, Any]:

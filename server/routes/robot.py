@@ -5,9 +5,9 @@ from typing import Any
 from fastapi import APIRouter
 
 from robot_sim.presets import default_presets
+from robot_sim.telemetry import task_fields
 from server.models import SIM_RESPONSES, GainsPreset, HealthModel, RobotStateModel, TaskModel
 from server.routes.deps import Book, DoneWaiters, Runner, on_sim_thread
-from server.runner import task_fields
 
 router = APIRouter(prefix="/api", tags=["robot"])
 

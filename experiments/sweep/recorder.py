@@ -1,0 +1,129 @@
+"""`ptwl sweep --record`: one trial's MCAP, in the same topics as a live session's.
+
+Log times are the trial's simulated time in nanoseconds from its start. The robot's telemetry
+is taken at the server's default rate (50 Hz of sim time); each command's life (queued when its
+POST reached the robot, running, done) and each behavior it ran are recorded as the robot saw
+them; both directions of the link record every message's delay or drop. Recording only
+watches: a trial's row is the same with or without it (a test holds it to that).
+"""
+
+from pathlib import Path
+from typing import Any
+
+from experiments.sweep.robot import Done, VirtualRobot
+from experiments.sweep.spec import TrialSpec
+from latency.clock import SimulatedLink
+from latency.delay_line import Dropped, Entry
+from latency.record import dropped_fields, released_fields
+from recording.writer import SessionRecorder, versions
+from robot_sim.executor import CommandParams
+from robot_sim.geometry import moving_bodies, scene_geometry
+from robot_sim.telemetry import state_fields
+
+TELEMETRY_PERIOD_S = 0.02  # the server's default telemetry rate, 50 Hz
+INSTANCE = "sweep"
+
+
+def _ns(t_s: float) -> int:
+    return round(t_s * 1e9)
+
+
+class _LinkRecord:
+    """The link's per-message record (latency/record.py's Recorder), on the trial's clock."""
+
+    def __init__(self, out: SessionRecorder) -> None:
+        self._out = out
+
+    def released(self, entry: Entry, now: float) -> None:
+        self._out.link(released_fields(entry, now), _ns(now))
+
+    def dropped(self, drop: Dropped) -> None:
+        self._out.link(dropped_fields(drop), _ns(drop.arrival))
+
+    def close(self) -> None:
+        pass
+
+
+class TrialRecorder:
+    def __init__(self, path: Path, spec: TrialSpec, robot: VirtualRobot, link: SimulatedLink) -> None:
+        metadata = {"source": "ptwl sweep", **{k: str(v) for k, v in spec.as_dict().items()}, **versions()}
+        self.path = path
+        self._out = SessionRecorder(path, metadata, overwrite=True)  # a trial re-run replaces its file
+        self._robot = robot
+        self._moving = moving_bodies(robot.sim.model)
+        self._sender = f"{spec.operator} operator"
+        self._ids: dict[str, int] = {}  # tag -> command id (1, 2, ... in the order they reached the robot)
+        self._running: str | None = None
+        self._params: dict[str, CommandParams] = {}
+        self._queued_s: dict[str, float] = {}
+        self._started_s: dict[str, float] = {}
+        self._steps = 0
+        self._next_state_s = 0.0
+        link.link.recorder = _LinkRecord(self._out)
+        sim = robot.sim
+        self._out.geometry({"scene": sim.scene.name, **scene_geometry(sim.model, sim.data)}, 0)
+
+    def observe(self, done: Done | None) -> None:
+        """After the robot's tick: record what changed (cheap when nothing did)."""
+        robot, now = self._robot, self._robot.sim.time
+        ns = _ns(now)
+        if len(robot.reports) != len(self._ids):
+            for tag in robot.reports:
+                if tag not in self._ids:
+                    self._ids[tag] = len(self._ids) + 1
+                    post = next(p for p in (robot.running, *robot.queue) if p is not None and p.tag == tag)
+                    self._params[tag] = post.params
+                    self._queued_s[tag] = now
+                    self._command(tag, "queued", ns)
+        running = robot.running.tag if robot.running is not None else None
+        if running is not None and running != self._running:
+            self._command(running, "running", ns)
+        self._running = running
+        steps = robot.figures.steps
+        owner = done.tag if done is not None else running  # whose behavior just ended
+        while self._steps < len(steps):
+            self._out.step(self._ids[owner] if owner else 0, steps[self._steps].as_dict(), ns)
+            self._steps += 1
+        if done is not None:
+            self._command(done.tag, "done", ns, done)
+        if now >= self._next_state_s:
+            self._next_state_s += TELEMETRY_PERIOD_S
+            state = {
+                "type": "state",
+                **state_fields(robot.sim, self._moving),
+                "active_command": self._ids.get(running) if running else None,
+                "instance": INSTANCE,
+            }
+            self._out.state(state, ns)
+
+    def close(self) -> None:
+        self._out.close()
+
+    def _command(self, tag: str, status: str, ns: int, done: Done | None = None) -> None:
+        params = self._params[tag]
+        event: dict[str, Any] = {
+            "type": "command",
+            "id": self._ids[tag],
+            "instance": INSTANCE,
+            "behavior": params.type,
+            "status": status,
+            "exit": None,
+            "params": params.model_dump(),
+            "queued_at": self._queued_s[tag],  # a trial's times are its sim time [s]
+            "sender": self._sender,
+        }
+        if status != "queued":
+            event["started_at"] = self._started_s.setdefault(tag, ns / 1e9)
+        if done is not None:
+            r = done.report
+            event.update(
+                exit=r.exit.value,
+                ended_at=r.ended_at,
+                duration=r.duration,
+                peak_force=r.peak_force,
+                peak_torque=r.peak_torque,
+                final_wrench=list(r.final_wrench),
+                final_port=r.final_port.as_dict(),
+                detail=r.detail,
+            )
+        self._out.command(event, ns)
