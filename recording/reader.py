@@ -6,6 +6,7 @@ dicts, Foxglove's protobuf messages to protobuf objects built from the schema in
 """
 
 import json
+import struct
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -64,7 +65,7 @@ def read(path: Path) -> Recording:
                     recording.metadata[record.name] = dict(record.metadata)
                 elif isinstance(record, DataEnd):
                     recording.complete = True
-        except (McapError, EOFError, ValueError) as err:  # cut short: keep what was whole
+        except (McapError, EOFError, ValueError, struct.error) as err:  # cut short: keep what was whole
             recording.problem = f"{type(err).__name__}: {err}".rstrip(": ")
     return recording
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import Any
 
 BASE_FRAME = "base"
+WORLD_BODY = "world"  # MuJoCo's world body: the base frame itself, drawn in it
 PORT_FRAME = "port"
 ATTRACTOR_FRAME = "attractor"
 

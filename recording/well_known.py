@@ -35,7 +35,7 @@ from foxglove.messages import (
     Vector3,
 )
 
-from recording.topics import BASE_FRAME
+from recording.topics import BASE_FRAME, WORLD_BODY
 
 FORCE_ARROW_M_PER_N = 0.005  # [m/N] 20 N draws a 10 cm arrow
 FORCE_ARROW_MIN_N = 0.05  # [N] below this (sensor noise at rest) no arrow is drawn
@@ -122,7 +122,7 @@ def scene_entities(ns: int, geometry: dict[str, Any]) -> SceneUpdate:
     entities = [
         SceneEntity(
             timestamp=timestamp(ns),
-            frame_id=body,
+            frame_id=BASE_FRAME if body == WORLD_BODY else body,
             id=f"body:{body}",
             frame_locked=True,
             cubes=parts["cubes"],

@@ -28,7 +28,7 @@ from foxglove.mcap import MCAPWriteOptions
 from foxglove.messages import FrameTransforms
 
 from recording import topics, well_known
-from recording.topics import ATTRACTOR_FRAME, PORT_FRAME
+from recording.topics import ATTRACTOR_FRAME, PORT_FRAME, WORLD_BODY
 from robot_sim.arm import JOINT_NAMES
 
 CHUNK_SPAN_NS = 1_000_000_000  # a chunk never spans this much log time: kill -9 loses less
@@ -100,6 +100,7 @@ class SessionRecorder:
         placed = [
             well_known.transform(ns, name, body["pose"][:3], body["pose"][3:])
             for name, body in geometry["bodies"].items()
+            if name != WORLD_BODY  # MuJoCo's world is the base frame itself
         ]
         self._on(topics.TF).log(FrameTransforms(transforms=placed), log_time=ns)
         self._on(topics.SCENE).log(well_known.scene_entities(ns, geometry), log_time=ns)

@@ -18,6 +18,7 @@ from experiments.sweep.summary import Fit, break_even_s, fits
 from experiments.sweep.sweep import run_sweep
 from experiments.sweep.table import NAMES, read_rows
 from ptwl.cli import main
+from recording.reader import read
 
 SMALL: dict[str, Any] = {
     "task": "quick_connect",
@@ -58,10 +59,66 @@ def test_outputs_list_every_trial_and_the_papers_rows(reference: Path) -> None:
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
 
 
-def test_two_workers_write_the_same_bytes_as_one(reference: Path, tmp_path: Path) -> None:
-    run_sweep(small(tmp_path, workers=2))
-    assert (tmp_path / "trials.csv").read_bytes() == (reference / "trials.csv").read_bytes()
-    assert (tmp_path / "summary.csv").read_bytes() == (reference / "summary.csv").read_bytes()
+@pytest.fixture(scope="module")
+def two_workers(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The small grid on two workers, recording every trial (--record)."""
+    out = tmp_path_factory.mktemp("two_workers")
+    run_sweep(small(out, workers=2, record=True))
+    return out
+
+
+def test_two_workers_write_the_same_bytes_as_one(reference: Path, two_workers: Path) -> None:
+    # ... and recording every trial changed none of them.
+    assert (two_workers / "trials.csv").read_bytes() == (reference / "trials.csv").read_bytes()
+    assert (two_workers / "summary.csv").read_bytes() == (reference / "summary.csv").read_bytes()
+
+
+def test_record_writes_each_trial_whose_report_is_its_row(
+    two_workers: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    rows = read_rows(two_workers / "trials.csv")
+    files = sorted((two_workers / "recordings").glob("*.mcap"))
+    assert [f.name for f in files] == sorted(
+        f"quick_connect_{r['operator']}_rtt{r['rtt_s']!r}_j0.0_l0.0_s{r['seed']}.mcap" for r in rows
+    )
+    for row in rows:
+        path = (
+            two_workers
+            / "recordings"
+            / f"quick_connect_{row['operator']}_rtt{row['rtt_s']!r}_j0.0_l0.0_s{row['seed']}.mcap"
+        )
+        recording = read(path)
+        assert recording.complete and recording.metadata["ptwl"]["operator"] == row["operator"]
+        assert main(["report", str(path), "--json"]) == 0
+        [trial] = json.loads(capsys.readouterr().out)
+        assert trial["success"] == row["success"]
+        assert trial["max_force_n"] == row["max_force_n"] and trial["max_torque_nm"] == row["max_torque_nm"]
+        assert trial["run_time_s"] == row["task_time_s"]
+        assert (trial["behaviors"], trial["rwe"], trial["dither"]) == (
+            row["behaviors"],
+            row["rwe"],
+            row["dither"],
+        )
+        assert trial["ptwl"] == {e: row[f"ptwl_{e}"] for e in ("timeout", "goal_reached", "wrench_breach")}
+        commands = [e for e in recording.values("/commands") if e["status"] == "done"]
+        assert len(commands) == row["commands_sent"] and {e["sender"] for e in commands} == {
+            f"{row['operator']} operator"
+        }
+        # The link: every request up and every reply and event down, each delayed by half the RTT.
+        link = recording.values("/link/messages")
+        up = [m for m in link if m["direction"] == "uplink"]
+        assert len(up) == row["commands_sent"] and len(link) == 3 * row["commands_sent"]
+        assert all(m["realized_delay"] == pytest.approx(row["rtt_s"] / 2, abs=1e-9) for m in link)
+        # Telemetry at 50 Hz of the trial's own clock.
+        times = [m.log_time_ns for m in recording.on("/ptwl/telemetry")]
+        steps = {b - a for a, b in zip(times, times[1:], strict=False)}
+        assert steps <= {19_000_000, 20_000_000, 21_000_000}  # on 1 ms ticks
+        assert (times[-1] - times[0]) / (len(times) - 1) == pytest.approx(20e6, rel=0.001)
+        assert len(times) >= 50 * row["task_time_s"]
+        if row["operator"] == "ground" and row["rtt_s"] == 1.0:
+            queued = [e for e in recording.values("/commands") if e["status"] == "queued"]
+            for before, after in zip(commands, queued[1:], strict=False):  # move, wait a round trip, think
+                assert after["queued_at"] - before["ended_at"] >= 1.0 + 0.5 * 1.0 - 0.002
 
 
 def test_a_rerun_runs_only_the_missing_trials(
