@@ -61,15 +61,8 @@ def cmd_replay(args: argparse.Namespace) -> int:
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda signum, frame: stop.set())
     flags = ["--speed", f"{args.speed}", *(["--paused"] if args.paused else [])]
-    robot = start(
-        "replay-serve",
-        str(args.file),
-        "--port",
-        str(free_port()),
-        *flags,
-        health="/_replay",
-        echo="[replay] ",
-    )
+    # Not echoed: the first "on http://" a launcher sees must be the console's.
+    robot = start("replay-serve", str(args.file), "--port", str(free_port()), *flags, health="/_replay")
     try:
         console = start(
             "console",
@@ -84,7 +77,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
     except BaseException:
         robot.stop()
         raise
-    print(f"ptwl replay: open {console.url} (Ctrl-C stops)", flush=True)
+    print(
+        f"ptwl replay: open {console.url}, replaying {args.file} from robot {robot.url} (Ctrl-C stops)",
+        flush=True,
+    )
     try:
         while not stop.wait(0.2):
             if robot.process.poll() is not None or console.process.poll() is not None:

@@ -59,6 +59,7 @@ class TrialRecorder:
         self._started_s: dict[str, float] = {}
         self._steps = 0
         self._next_state_s = 0.0
+        self._seq = 0  # the state messages' sequence number, from 1, as the server's
         link.link.recorder = _LinkRecord(self._out)
         sim = robot.sim
         self._out.geometry({"scene": sim.scene.name, **scene_geometry(sim.model, sim.data)}, 0)
@@ -88,8 +89,10 @@ class TrialRecorder:
             self._command(done.tag, "done", ns, done)
         if now >= self._next_state_s:
             self._next_state_s += TELEMETRY_PERIOD_S
+            self._seq += 1
             state = {
                 "type": "state",
+                "seq": self._seq,
                 **state_fields(robot.sim, self._moving),
                 "active_command": self._ids.get(running) if running else None,
                 "instance": INSTANCE,

@@ -1,0 +1,217 @@
+"""`ptwl replay`: the playhead (exact, on a fake clock), the recording served as the robot (the
+state, scene and commands as they were at the playhead; nothing can be sent), its telemetry
+socket in recorded order, and the console on it in a real browser (play, pause, seek)."""
+
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import httpx
+import pytest
+from fastapi.testclient import TestClient
+
+from experiments.sweep.spec import TrialSpec
+from experiments.sweep.trial import simulate
+from guard.access import AccessPolicy
+from ptwl.launcher import free_port, running
+from recording.reader import read
+from recording.replay.app import create_replay_app
+from recording.replay.player import Player
+from recording.replay.timeline import Timeline
+from tests.console_page import port_mm
+
+SPEC = TrialSpec("quick_connect", "onboard", 0.0, 0.0, 0.0, 0, think_s=0.0)
+
+
+@pytest.fixture(scope="module")
+def recording_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("replay") / "trial.mcap"
+    simulate(SPEC, record=path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def timeline(recording_path: Path) -> Timeline:
+    return Timeline(read(recording_path))
+
+
+class FakeClock:
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def test_the_playhead_moves_at_speed_from_where_it_was_set_and_stops_at_the_end() -> None:
+    clock = FakeClock()
+    player = Player(0, 10_000_000_000, clock)
+    assert player.now().position_ns == 0 and not player.now().playing
+    player.set(playing=True, speed=2.0)
+    clock.now += 1.5
+    assert player.now().position_ns == 3_000_000_000
+    player.set(speed=0.5)  # a speed change keeps the position
+    clock.now += 2.0
+    assert player.now().position_ns == 4_000_000_000
+    player.set(playing=False)
+    clock.now += 5.0
+    assert player.now().position_ns == 4_000_000_000  # paused: still
+    player.set(position_ns=9_000_000_000, playing=True)
+    assert player.jumps == 1
+    clock.now += 10.0
+    head = player.now()
+    assert head.position_ns == 10_000_000_000 and not head.playing  # the end: stopped there
+    player.set(playing=True)  # play at the end starts over
+    assert player.now().position_ns == 0 and player.jumps == 2
+    player.set(position_ns=-5)
+    assert player.now().position_ns == 0  # clamped
+
+
+def _client(timeline: Timeline) -> tuple[TestClient, Player]:
+    player = Player(timeline.start_ns, timeline.end_ns)
+    app = create_replay_app(timeline, player, AccessPolicy("127.0.0.1", 8123))
+    return TestClient(app, base_url="http://127.0.0.1:8123"), player
+
+
+def test_the_robot_as_it_was_at_the_playhead(timeline: Timeline, recording_path: Path) -> None:
+    client, _ = _client(timeline)
+    rec = read(recording_path)
+    events = rec.on("/commands")
+    queued_ns, running_ns, done_ns = (
+        next(m.log_time_ns for m in events if m.value["status"] == s) for s in ("queued", "running", "done")
+    )
+    assert queued_ns <= running_ns < done_ns
+
+    def at(ns: int) -> dict[str, Any]:
+        response = client.put("/_replay", json={"position_s": (ns - timeline.start_ns) / 1e9})
+        assert response.status_code == 200
+        return response.json()
+
+    at(timeline.start_ns)
+    assert client.get("/api/commands").json() == [] or queued_ns == timeline.start_ns
+    at(running_ns + 10_000_000)
+    [command] = client.get("/api/commands").json()
+    assert (command["status"], command["type"], command["exit"]) == ("running", "state_machine", None)
+    state = client.get("/api/state").json()
+    telemetry = rec.on("/ptwl/telemetry")
+    expected = [m.value for m in telemetry if m.log_time_ns <= running_ns + 10_000_000][-1]
+    assert state["sim_time"] == expected["sim_time"] and state["port"] == expected["port"]
+    status = at(done_ns)
+    assert status["position_s"] == pytest.approx((done_ns - timeline.start_ns) / 1e9, abs=1e-6)
+    [command] = client.get("/api/commands").json()
+    assert command["status"] == "done" and command["exit"] == "completed"
+    assert client.get(f"/api/commands/{command['id']}").json()["peak_force"] == command["peak_force"]
+    assert client.get("/api/geometry").json()["scene"] == "quick_connect"
+    assert client.get("/api/task").json()["success"] is True
+    assert client.get("/api/health").json()["sim_time"] == client.get("/api/state").json()["sim_time"]
+
+
+def test_nothing_can_be_sent_and_bad_controls_are_named(timeline: Timeline) -> None:
+    client, player = _client(timeline)
+    before = player.now()
+    for path, body in (
+        ("/api/commands", {"type": "rwe", "axes": ["z"], "duration": 1.0}),
+        ("/api/stop", None),
+        ("/api/scene", {"name": "lid"}),
+    ):
+        response = client.post(path, json=body)
+        assert response.status_code == 409 and "replay" in response.json()["detail"]
+    for body, field in (
+        ({"speed": 100.0}, "speed"),
+        ({"position_s": 1e6}, "position_s"),
+        ({"playing": "yes"}, "playing"),
+        ({"rewind": True}, "rewind"),
+    ):
+        response = client.put("/_replay", json=body)
+        assert response.status_code == 422 and field in response.json()["detail"], body
+    assert player.now() == before  # refused changes change nothing
+
+
+def test_the_socket_replays_messages_in_recorded_order_at_speed(timeline: Timeline) -> None:
+    client, player = _client(timeline)
+    player.set(position_ns=timeline.start_ns, speed=16.0)
+    received: list[dict[str, Any]] = []
+    with client.websocket_connect("ws://127.0.0.1:8123/api/telemetry") as ws:
+        received.append(json.loads(ws.receive_text()))  # the state at the playhead, at once
+        started = time.monotonic()
+        player.set(playing=True)
+        while len(received) < 120:
+            received.append(json.loads(ws.receive_text()))
+        elapsed = time.monotonic() - started
+    states = [m for m in received if m["type"] == "state"]
+    assert [s["seq"] for s in states[1:]] == list(range(states[1]["seq"], states[1]["seq"] + len(states) - 1))
+    sim_span = states[-1]["sim_time"] - states[1]["sim_time"]
+    assert sim_span / elapsed == pytest.approx(16.0, rel=0.35)  # paced at 16x real time
+    recorded = [json.loads(o.text) for o in timeline.between(timeline.start_ns - 1, timeline.end_ns)]
+    first = recorded.index({k: v for k, v in received[1].items() if k != "sent_at"})
+    assert [{k: v for k, v in m.items() if k != "sent_at"} for m in received[1:]] == recorded[
+        first : first + len(received) - 1
+    ]
+    assert all(abs(m["sent_at"] - time.time()) < 5.0 for m in received)
+
+
+def test_the_console_replays_a_recording_with_play_pause_and_seek(
+    recording_path: Path, timeline: Timeline, browser: object
+) -> None:
+    from tests.console_page import _load
+
+    port = free_port()
+    with running(
+        "replay", str(recording_path), "--port", str(port), "--paused", health="/", startup_timeout=90.0
+    ) as replay:
+        assert replay.url == f"http://127.0.0.1:{port}"  # the console, not its robot stand-in
+        page = _load(browser, replay.url, (1100, 900))
+        page.wait_for_function(
+            "document.querySelector('#ptwl-replay')?.dataset.playing === '0'", timeout=60_000
+        )
+        page.wait_for_function("document.querySelector('#ptwl-telemetry')?.dataset.seq > 0", timeout=30_000)
+        first = timeline.telemetry.values[0]
+        assert port_mm(page) == pytest.approx([1000 * v for v in first["port"]["position"]], abs=0.11)
+        assert (
+            page.locator("#ptwl-command").count() == 0
+            or "No command" in page.locator("#ptwl-command").inner_text()
+        )
+        # Seek to the end: the history is the recording's, with the machine's exit.
+        slider = page.get_by_role("slider")
+        slider.focus()
+        slider.press("End")
+        page.wait_for_function(
+            "document.querySelector('#ptwl-command')?.dataset.status === 'completed'", timeout=20_000
+        )
+        last = timeline.telemetry.values[-1]
+        page.wait_for_function(
+            f"document.querySelector('#ptwl-telemetry')?.dataset.seq == {last['seq']}", timeout=20_000
+        )
+        assert port_mm(page) == pytest.approx([1000 * v for v in last["port"]["position"]], abs=0.11)
+        # Back to the start and play: the playhead moves, the command appears when it was sent.
+        slider.press("Home")
+        page.wait_for_function(
+            "document.querySelector('#ptwl-command')?.dataset.status !== 'completed'", timeout=20_000
+        )
+        page.get_by_role("button", name="Play").click()
+        page.wait_for_function(
+            "document.querySelector('#ptwl-replay')?.dataset.playing === '1'", timeout=10_000
+        )
+        page.wait_for_function(
+            "Number(document.querySelector('#ptwl-replay')?.dataset.position) > 0.5", timeout=10_000
+        )
+        page.wait_for_function(
+            "['running', 'completed'].includes(document.querySelector('#ptwl-command')?.dataset.status)",
+            timeout=20_000,
+        )
+        page.get_by_role("button", name="Pause").click()
+        page.wait_for_function(
+            "document.querySelector('#ptwl-replay')?.dataset.playing === '0'", timeout=10_000
+        )
+        paused_at = float(page.locator("#ptwl-replay").get_attribute("data-position") or "nan")
+        time.sleep(0.6)
+        status = httpx.get(f"{robot_url(replay.output)}/_replay", timeout=5.0).json()
+        assert not status["playing"] and status["position_s"] == pytest.approx(paused_at, abs=0.3)
+        page.close()
+
+
+def robot_url(output: list[str]) -> str:
+    """The replay's robot stand-in, as `ptwl replay` announced it."""
+    line = next(line for line in output if "replaying" in line)
+    return line.split(" robot ")[1].split()[0]
