@@ -2,7 +2,8 @@
 
 Prints JSON: command latency (POST to the `running` event on the telemetry socket) p50/p99,
 achieved telemetry rate with 1 and 10 clients, simulation real-time factor while serving, and
-the server process's CPU use.
+the server process's CPU use; then the same with `--record` (MCAP), its file size, and the
+ratios recorded / plain (recording must stay within 2 %).
 
     python -m bench.server [--commands 200] [--seconds 5]
 """
@@ -12,12 +13,15 @@ import asyncio
 import json
 import os
 import statistics
+import tempfile
 import time
+from pathlib import Path
 
 import httpx
 import websockets
 
 from ptwl.launcher import ServiceProcess, running_server
+from recording.reader import read
 
 CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
 
@@ -79,12 +83,8 @@ async def telemetry_rate(server: ServiceProcess, clients: int, seconds: float) -
     return list(await asyncio.gather(*(one() for _ in range(clients))))
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--commands", type=int, default=200)
-    parser.add_argument("--seconds", type=float, default=5.0)
-    args = parser.parse_args()
-    with running_server("--scene", "surface") as server:
+def measure(args: argparse.Namespace, *server_args: str) -> dict:
+    with running_server("--scene", "surface", *server_args) as server:
         pid = server.process.pid
         health0 = httpx.get(server.url + "/api/health").json()
         wall0, cpu0 = time.monotonic(), cpu_seconds(pid)
@@ -96,7 +96,7 @@ def main() -> None:
         idle_t0, idle_cpu0 = time.monotonic(), cpu_seconds(pid)
         time.sleep(args.seconds)
         idle_cpu = (cpu_seconds(pid) - idle_cpu0) / (time.monotonic() - idle_t0)
-    result = {
+    return {
         "command_latency_ms": {
             "p50": round(statistics.median(latencies), 2),
             "p99": round(percentile(latencies, 0.99), 2),
@@ -115,7 +115,48 @@ def main() -> None:
             "idle_with_sim": round(100.0 * idle_cpu, 1),
         },
     }
-    print(json.dumps(result))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--commands", type=int, default=200)
+    parser.add_argument("--seconds", type=float, default=5.0)
+    args = parser.parse_args()
+    plain = measure(args)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "bench.mcap"
+        recorded = measure(args, "--record", str(path))
+        size_mb = path.stat().st_size / 1e6
+        recording = read(path)
+        states = len(recording.on("/ptwl/telemetry"))
+        span_s = (recording.messages[-1].log_time_ns - recording.messages[0].log_time_ns) / 1e9
+    ratio = {  # with --record / without: the goal is within 2 % (0.98-1.02)
+        "telemetry_1_client": round(
+            recorded["telemetry_hz"]["1_client"] / plain["telemetry_hz"]["1_client"], 4
+        ),
+        "telemetry_10_clients_mean": round(
+            recorded["telemetry_hz"]["10_clients_mean"] / plain["telemetry_hz"]["10_clients_mean"], 4
+        ),
+        "sim_rtf": round(recorded["sim_rtf_while_serving"] / plain["sim_rtf_while_serving"], 4),
+        "command_latency_p50": round(
+            recorded["command_latency_ms"]["p50"] / plain["command_latency_ms"]["p50"], 4
+        ),
+    }
+    print(
+        json.dumps(
+            {
+                **plain,
+                "with_record": {
+                    **recorded,
+                    "file_mb": round(size_mb, 2),
+                    "mb_per_min": round(size_mb / span_s * 60.0, 2),
+                    "states_recorded": states,
+                    "states_per_s": round(states / span_s, 2),
+                },
+                "record_over_plain": ratio,
+            }
+        )
+    )
 
 
 if __name__ == "__main__":

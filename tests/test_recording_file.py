@@ -256,3 +256,9 @@ def _rotate(q_wxyz: tuple[float, ...], v: tuple[float, float, float]) -> np.ndar
     out = np.zeros(3)
     mujoco.mju_rotVecQuat(out, np.asarray(v), np.asarray(q_wxyz))
     return out
+
+
+def test_the_readme_documents_every_topic_and_schema() -> None:
+    readme = (Path(__file__).parent.parent / "README.md").read_text()
+    for topic in topics.ALL:
+        assert f"`{topic.name}`" in readme and topic.schema.split(".")[1] in readme, topic.name
