@@ -41,6 +41,7 @@ class RecordingThread:
         self._thread = threading.Thread(target=self._run, name="ptwl-record", daemon=True)
         self._scene_key: tuple[Any, ...] | None = None
         self._last_sim_time = 0.0
+        self.failures = 0  # messages that could not be recorded (the first is reported)
 
     # ------------------------------------------------ from any thread: stamp and go
     def state(self, text: str) -> None:
@@ -64,15 +65,23 @@ class RecordingThread:
 
     def _run(self) -> None:
         while (item := self._inbox.get()) is not None:
-            kind, payload, ns = item
-            if kind == "state":
-                message = json.loads(payload)
-                self._on_state(message, ns)
-            elif kind == "command":
-                self._recorder.command(json.loads(payload), ns)
-            else:
-                command_id, step = payload
-                self._recorder.step(command_id, step.as_dict(), ns)
+            try:
+                self._record(*item)
+            except Exception as err:  # one bad message must not end the recording
+                self.failures += 1
+                if self.failures == 1:
+                    print(
+                        f"ptwl serve: recording: {type(err).__name__}: {err} (recording goes on)", flush=True
+                    )
+
+    def _record(self, kind: str, payload: Any, ns: int) -> None:
+        if kind == "state":
+            self._on_state(json.loads(payload), ns)
+        elif kind == "command":
+            self._recorder.command(json.loads(payload), ns)
+        else:
+            command_id, step = payload
+            self._recorder.step(command_id, step.as_dict(), ns)
 
     def _on_state(self, message: dict[str, Any], ns: int) -> None:
         # A new scene, a fault's reload or a reset (sim time went back): record the geometry

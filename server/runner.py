@@ -147,8 +147,10 @@ class SimRunner:
         ended = self._executor.behavior_ended(report)
         if running is not None and self.on_step is not None:
             self.on_step(running.id, ended.step)
+        # A machine's steps are announced as they end; a behavior command's one step is the
+        # command itself, announced by its end.
         if running is not None and isinstance(running.params, StateMachineParams):
-            self.book.step_done(ended.step)  # a behavior command's one step is the command itself
+            self.book.step_done(ended.step)
         if ended.command is not None:
             self.book.finish(ended.command)  # the book announces it
 

@@ -18,6 +18,7 @@ import pytest
 
 from ptwl.launcher import free_port, running_console, running_proxy, running_server
 from ptwl.up import RestartBudget
+from recording.reader import read
 from tests.console_page import (
     command_id,
     command_status,
@@ -175,11 +176,12 @@ def wait_line(lines: list[str], text: str, timeout_s: float) -> None:
         time.sleep(0.1)
 
 
-def test_ptwl_up_restarts_a_crashed_child_and_the_old_tab_carries_on(browser) -> None:  # type: ignore[no-untyped-def]
+def test_ptwl_up_restarts_a_crashed_child_and_the_old_tab_carries_on(browser, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     """On main a crashed link took the robot and console down with it, and an old tab never came
-    back to a restarted console."""
+    back to a restarted console. Recording all along: the restarted link records anew."""
     ports = [free_port(), free_port(), free_port()]
-    cmd = [sys.executable, "-m", "ptwl.cli", "up", "--scene", "free_space"]
+    session = tmp_path / "s.mcap"
+    cmd = [sys.executable, "-m", "ptwl.cli", "up", "--scene", "free_space", "--record", str(session)]
     cmd += ["--server-port", str(ports[0]), "--proxy-port", str(ports[1]), "--console-port", str(ports[2])]
     process = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     assert process.stdout is not None
@@ -218,6 +220,15 @@ def test_ptwl_up_restarts_a_crashed_child_and_the_old_tab_carries_on(browser) ->
     for port in ports:
         with pytest.raises(httpx.TransportError):
             httpx.get(f"http://127.0.0.1:{port}/", timeout=1.0)
+    robot_file = read(session)
+    assert robot_file.complete  # Ctrl-C finished it
+    [done] = [e for e in robot_file.values("/commands") if e["status"] == "done"]
+    assert done["exit"] == "goal_reached" and " at console 127.0.0.1:" in done["sender"]
+    assert done["params"]["translation"] == pytest.approx([0.0, 0.0, -0.005])
+    before_crash, after_crash = read(tmp_path / "s.link.mcap"), read(tmp_path / "s.link.restart1.mcap")
+    assert before_crash.complete and after_crash.complete  # the crash was a SIGTERM: finished too
+    posted = [m for m in after_crash.values("/link/messages") if m["kind"] == "http_request"]
+    assert posted and all(m["drop_reason"] is None for m in posted)
 
 
 def test_ptwl_up_gives_up_on_a_child_that_keeps_dying() -> None:

@@ -7,6 +7,7 @@ import asyncio
 import json
 import signal
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -42,11 +43,21 @@ def session(tmp_path_factory: pytest.TempPathFactory) -> dict:
     killed with SIGKILL), run side by side."""
     tmp = tmp_path_factory.mktemp("rec")
     files = {"a": tmp / "a.mcap", "b": tmp / "b.mcap", "link": tmp / "link.mcap"}
-    a = start(
-        "serve", "--port", "0", "--scene", "free_space", "--record", str(files["a"]), health="/api/health"
-    )
-    b = start("serve", "--port", "0", "--record", str(files["b"]), health="/api/health")
-    b_started = time.time()
+    with ThreadPoolExecutor(1) as pool:  # both at once: each takes ~0.7 s to come up
+        a_starting = pool.submit(
+            start,
+            "serve",
+            "--port",
+            "0",
+            "--scene",
+            "free_space",
+            "--record",
+            str(files["a"]),
+            health="/api/health",
+        )
+        b = start("serve", "--port", "0", "--record", str(files["b"]), health="/api/health")
+        b_started = time.time()
+        a = a_starting.result()
     link = start(
         "proxy",
         "--upstream",

@@ -1,6 +1,7 @@
 """A whole sweep: its outputs, the same bytes whatever the workers or backend, resuming, Ctrl-C,
 and the findings it exists for (ground time linear in RTT, onboard flat)."""
 
+import itertools
 import json
 import os
 import signal
@@ -111,7 +112,7 @@ def test_record_writes_each_trial_whose_report_is_its_row(
         assert all(m["realized_delay"] == pytest.approx(row["rtt_s"] / 2, abs=1e-9) for m in link)
         # Telemetry at 50 Hz of the trial's own clock.
         times = [m.log_time_ns for m in recording.on("/ptwl/telemetry")]
-        steps = {b - a for a, b in zip(times, times[1:], strict=False)}
+        steps = {b - a for a, b in itertools.pairwise(times)}
         assert steps <= {19_000_000, 20_000_000, 21_000_000}  # on 1 ms ticks
         assert (times[-1] - times[0]) / (len(times) - 1) == pytest.approx(20e6, rel=0.001)
         assert len(times) >= 50 * row["task_time_s"]
