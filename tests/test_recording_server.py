@@ -17,6 +17,7 @@ from ptwl.cli import main as ptwl_main
 from ptwl.launcher import ServiceProcess, start
 from ptwl.up import _record_args, link_record
 from recording.reader import Recording, read
+from recording.report import report_json
 from server.client import RobotClient
 
 ONE_WAY_S = 0.1
@@ -77,6 +78,8 @@ def session(tmp_path_factory: pytest.TempPathFactory) -> dict:
             accepted = robot.command("ptwl", sender="ana at test", translation=[0.0, 0.02, 0.0], duration=0.6)
             heard = asyncio.run(_listen(a.url, LISTEN_S))
             final = robot.wait(accepted.id, timeout=10.0)
+            robot.reset_scene("surface")  # a new scene: recorded anew, a new trial for the report
+            time.sleep(0.5)
         stats = _stats(link)
         time.sleep(max(0.0, b_started + KILL_AFTER_S - time.time()))
         b.process.send_signal(signal.SIGKILL)
@@ -117,15 +120,21 @@ def test_sigterm_finishes_the_file_and_it_holds_every_state_the_robot_sent(sessi
     assert len(heard) >= 0.9 * 50 * LISTEN_S
     for message in heard:  # what a client heard is what was recorded (but the moment it left)
         assert {k: v for k, v in message.items() if k != "sent_at"} == recorded[message["seq"]]
-    loads = len(rec.on("/ptwl/geometry"))  # the scene loaded once: placed on /tf, drawn on /scene
-    assert loads == 1
+    scenes = [g["scene"] for g in rec.values("/ptwl/geometry")]  # each load: placed on /tf, drawn on /scene
+    assert scenes == ["free_space", "surface"]
+    loads = len(scenes)
+    first_state_of = {m.value["scene"]: m.log_time_ns for m in reversed(rec.on("/ptwl/telemetry"))}
+    assert [m.log_time_ns for m in rec.on("/ptwl/geometry")][1] <= first_state_of[
+        "surface"
+    ]  # drawn before moved
     for topic in ("/tf", "/scene", "/port", "/attractor", "/joint_states", "/wrench", "/task"):
         assert len(rec.on(topic)) == len(telemetry) + (loads if topic in ("/tf", "/scene") else 0), topic
         times = [m.log_time_ns for m in rec.on(topic)]
         assert times == sorted(times)
     last_port = rec.values("/port")[-1].pose.position
     assert [last_port.x, last_port.y, last_port.z] == telemetry[-1]["port"]["position"]
-    assert rec.values("/ptwl/geometry")[0]["scene"] == "free_space"
+    [trial] = report_json(rec)  # one trial: the surface scene ran nothing
+    assert trial["scene"] == "free_space" and trial["ptwl"]["goal_reached"] == 1 and trial["behaviors"] == 1
 
 
 def test_each_command_event_and_step_with_its_sender(session: dict) -> None:

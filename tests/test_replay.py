@@ -16,7 +16,7 @@ from experiments.sweep.trial import simulate
 from guard.access import AccessPolicy
 from ptwl.launcher import free_port, running
 from recording.reader import read
-from recording.replay.app import create_replay_app
+from recording.replay.app import KEEPALIVE_S, create_replay_app
 from recording.replay.player import Player
 from recording.replay.timeline import Timeline
 from tests.console_page import port_mm
@@ -134,6 +134,15 @@ def test_the_socket_replays_messages_in_recorded_order_at_speed(timeline: Timeli
     received: list[dict[str, Any]] = []
     with client.websocket_connect("ws://127.0.0.1:8123/api/telemetry") as ws:
         received.append(json.loads(ws.receive_text()))  # the state at the playhead, at once
+        # Paused, a seek sends the state there at once (not at the next keep-alive).
+        middle = timeline.telemetry.values[len(timeline.telemetry.values) // 2]
+        middle_ns = timeline.telemetry.times_ns[len(timeline.telemetry.values) // 2]
+        sought = time.monotonic()
+        player.set(position_ns=middle_ns)
+        assert json.loads(ws.receive_text())["seq"] == middle["seq"]
+        assert time.monotonic() - sought < KEEPALIVE_S / 2
+        player.set(position_ns=timeline.start_ns)
+        assert json.loads(ws.receive_text())["seq"] == received[0]["seq"]
         started = time.monotonic()
         player.set(playing=True)
         while len(received) < 120:
