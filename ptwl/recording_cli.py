@@ -63,6 +63,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
     flags = ["--speed", f"{args.speed}", *(["--paused"] if args.paused else [])]
     # Not echoed: the first "on http://" a launcher sees must be the console's.
     robot = start("replay-serve", str(args.file), "--port", str(free_port()), *flags, health="/_replay")
+    for line in robot.output:  # what it said besides its URL (a file cut short)
+        if " on http://" not in line:
+            print(f"[replay] {line}", end="", flush=True)
     try:
         console = start(
             "console",
