@@ -47,7 +47,11 @@ class Playback(Worker):
             self.play = gui.add_button("Pause" if status["playing"] else "Play")
             self.speed = gui.add_dropdown("Speed", speeds, initial_value=f"{status['speed']:g}x")
             self.slider = gui.add_slider(
-                "Time [s]", min=0.0, max=max(status["duration_s"], 0.01), step=0.01, initial_value=0.0
+                "Time [s]",
+                min=0.0,
+                max=max(round(status["duration_s"], 2), 0.01),
+                step=0.01,
+                initial_value=0.0,
             )
         self.play.on_click(lambda _: self.put(playing=not self.status["playing"]))
 
