@@ -6,6 +6,7 @@ value the console sets itself comes with no client). After a seek the console re
 history as it was at the new time (`on_jump`).
 """
 
+import math
 from collections.abc import Callable
 from typing import Any, cast
 
@@ -49,7 +50,7 @@ class Playback(Worker):
             self.slider = gui.add_slider(
                 "Time [s]",
                 min=0.0,
-                max=max(round(status["duration_s"], 2), 0.01),
+                max=max(_slider_end(status["duration_s"]), 0.01),
                 step=0.01,
                 initial_value=0.0,
             )
@@ -76,7 +77,9 @@ class Playback(Worker):
             self._show(response.json())
 
     def _seek(self, position_s: float) -> None:
-        self.put(position_s=position_s)
+        # The slider's end is the duration rounded down to its step: there, seek to the very end.
+        end_s = self.status["duration_s"]
+        self.put(position_s=end_s if position_s >= _slider_end(end_s) else position_s)
         self._on_jump()
 
     def _run(self) -> None:
@@ -93,6 +96,11 @@ class Playback(Worker):
         self.play.label = "Pause" if status["playing"] else "Play"
         cast(Any, self.slider).value = round(status["position_s"], 2)  # no client: not a seek
         self.title.content = _title_html(status)
+
+
+def _slider_end(duration_s: float) -> float:
+    """The slider's last value: the duration rounded down to its 0.01 s step (never past the end)."""
+    return math.floor(duration_s * 100.0) / 100.0
 
 
 def _title_html(status: dict[str, Any]) -> str:
