@@ -175,6 +175,9 @@ def test_the_console_replays_a_recording_with_play_pause_and_seek(
             "document.querySelector('#ptwl-replay')?.dataset.playing === '0'", timeout=60_000
         )
         page.wait_for_function("document.querySelector('#ptwl-telemetry')?.dataset.seq > 0", timeout=30_000)
+        # Watched, not commanded: no form, no control to take, no STOP.
+        for button in ("Send cmd", "Take control", "STOP"):
+            assert page.get_by_role("button", name=button).count() == 0, button
         first = timeline.telemetry.values[0]
         assert port_mm(page) == pytest.approx([1000 * v for v in first["port"]["position"]], abs=0.11)
         assert (

@@ -124,6 +124,7 @@ class ConsoleApp:
         self.board = Board(self.server.gui, scene_names, geometry.scene, self.defaults.plot_s)
         if replay is not None:
             self.playback = Playback(self.server.gui, self.robot_url, self.token, replay, self._replay_jumped)
+            self.bar.stop.visible = False  # nothing moves on a recording
         self.bar.stop.on_click(lambda event: self.stop(event.client))
         self.board.reset_scene.on_click(lambda _: self.reset_scene())
         self.seat.on_change(self._seat_changed)
@@ -141,8 +142,8 @@ class ConsoleApp:
 
     # ---------------------------------------------------------------- desks
     def _client_connected(self, client: viser.ClientHandle) -> None:
-        if self._closed:
-            return
+        if self._closed or self.playback is not None:
+            return  # a replay is watched, not commanded: no form to send from
         desk = Desk(
             client,
             self.defaults,
