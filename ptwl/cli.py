@@ -103,7 +103,7 @@ def cmd_console(args: argparse.Namespace) -> int:
             f"refusing to bind {args.host}: the console has no login of its own; keep it on 127.0.0.1 "
             "and reach it through an SSH tunnel (ssh -L 8080:127.0.0.1:8080 host)"
         )
-    run_console(args.robot, args.host, args.port, args.token or None, tuple(args.allow_origin))
+    run_console(args.robot, args.host, args.port, args.token or None, tuple(args.allow_origin), args.replay)
     return 0
 
 
@@ -228,6 +228,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     console.add_argument("--port", type=int, default=8080)
     console.add_argument("--token", default=os.environ.get("PTWL_TOKEN"), help="the robot's access token")
+    console.add_argument("--replay", action="store_true", help=argparse.SUPPRESS)  # started by `ptwl replay`
     _access_flags(console, hosts=False)
     console.set_defaults(func=cmd_console)
     serve = sub.add_parser("serve", help="run the robot server (REST + WebSocket telemetry)")

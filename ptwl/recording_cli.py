@@ -69,6 +69,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     try:
         console = start(
             "console",
+            "--replay",
             "--robot",
             robot.url,
             "--port",

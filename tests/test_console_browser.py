@@ -235,3 +235,24 @@ def test_ptwl_up_gives_up_on_a_child_that_keeps_dying() -> None:
     budget = RestartBudget(limit=3, window_s=60.0)
     assert [budget.allow(t) for t in (0.0, 1.0, 2.0, 3.0)] == [True, True, True, False]
     assert budget.allow(61.5)  # the first restart has left the window
+
+
+def test_a_fresh_console_behind_a_3_s_link_shows_send_within_4_s(browser) -> None:  # type: ignore[no-untyped-def]
+    """On main it took 8.7 s (each of four start-up answers waited for the last), then 4.1-4.35 s
+    (one round trip, then the panels); the panels no longer wait for the robot at all."""
+    with (
+        running_server("--scene", "surface") as robot,
+        running_proxy(robot.url, "--uplink", "1.5", "--downlink", "1.5") as link,
+        running_console(link.url) as console,
+    ):
+        started = time.monotonic()  # the console has just begun to reach the robot
+        page = browser.new_page(viewport={"width": 1100, "height": 720})
+        page.goto(console.url, wait_until="commit")
+        page.get_by_role("button", name="Send cmd").wait_for(timeout=10_000)
+        send_after = time.monotonic() - started
+        # Behind the link for real: the robot's first state comes at least a downlink later.
+        page.wait_for_function("document.querySelector('#ptwl-telemetry')?.dataset.seq > 0", timeout=15_000)
+        state_after = time.monotonic() - started
+        page.close()
+    assert send_after < 4.0, send_after
+    assert state_after >= 1.5, state_after

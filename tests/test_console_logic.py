@@ -24,6 +24,7 @@ from server.client import RobotClient
 from server.models import GeometryModel
 from web.app import ConsoleApp
 from web.desk import Desk
+from web.handshake import Catalog
 from web.history import CommandHistory
 from web.robot_view import FIXTURE_OPACITY
 from web.status_bar import _task_html, staleness
@@ -395,3 +396,18 @@ def test_the_task_bar_fills_toward_success_whichever_way_the_target_lies(
         "at_most": at_most,
     }
     assert f"width:{width}" in _task_html(task)
+
+
+def test_the_consoles_own_catalog_is_the_robots_and_a_difference_is_named(server: ServiceProcess) -> None:
+    """The console builds its panels before the robot answers, from its own copy of the robot's
+    catalog; the robot's answer is then compared with it."""
+    local = Catalog.local()
+    with RobotClient(server.url) as robot:
+        answered = Catalog(robot.presets(), robot.scenes(), robot.tasks())
+    assert local.differences(answered) == []
+    other = Catalog(
+        {**answered.presets, "stiff": {**answered.presets["stiff"], "damping": [1.0] * 6}},
+        answered.scenes,
+        answered.tasks[1:],
+    )
+    assert local.differences(other) == ["presets", "tasks"]

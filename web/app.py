@@ -12,7 +12,6 @@ browser shares), `Desk` (one per browser), `RobotView` (the 3D scene), `Telemetr
 
 import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
 from typing import Any, Literal
 
 import httpx
@@ -28,6 +27,7 @@ from web.defaults import load_defaults
 from web.desk import Desk
 from web.feed import TelemetryFeed
 from web.front_door import FrontDoor, admit_only_through
+from web.handshake import Catalog, Handshake
 from web.history import CommandHistory, CommandView
 from web.link_poller import LinkPoller
 from web.playback import Playback, replay_status
@@ -50,9 +50,11 @@ class ConsoleApp:
         port: int = 8080,
         token: str | None = None,
         allow_origins: tuple[str, ...] = (),
+        replay: bool = False,
     ):
         self.robot_url = robot_url.rstrip("/")
         self.token = token
+        self.replay = replay  # the robot is `ptwl replay`'s stand-in for a recording
         self.client = RobotClient(self.robot_url, token=token, timeout=HTTP_TIMEOUT_S)
         self.defaults = load_defaults()
         # viser checks no Origin: it listens on an ephemeral loopback port behind the front door.
@@ -85,6 +87,7 @@ class ConsoleApp:
         self.feed: TelemetryFeed | None = None
         self.link_poller: LinkPoller | None = None
         self.playback: Playback | None = None  # when the robot is a recording
+        self.handshake: Handshake | None = None
 
     @property
     def url(self) -> str:
@@ -92,36 +95,24 @@ class ConsoleApp:
         return f"http://{shown}:{self._front_port}"
 
     # ---------------------------------------------------------------- start
-    def connect(self, timeout: float = 120.0) -> None:
-        """Wait for the robot (through the link), then build the panels and the scene."""
-        waiting = self.server.gui.add_markdown(f"Waiting for the robot at {self.robot_url} ...")
-        deadline = time.monotonic() + timeout
-        with ThreadPoolExecutor(4, thread_name_prefix="ptwl-start") as pool:
-            while True:
-                # Concurrently: over a 3 s round trip, four in a row would take four round trips.
-                presets_call = pool.submit(self.client.presets)
-                scenes_call = pool.submit(self.client.scenes)
-                geometry_call = pool.submit(self.client.geometry)
-                tasks_call = pool.submit(self.client.tasks)
-                replay_call = pool.submit(replay_status, self.robot_url, self.token)
-                try:
-                    presets, scene_list = presets_call.result(), scenes_call.result()
-                    geometry, tasks = geometry_call.result(), tasks_call.result()
-                    replay = replay_call.result()
-                    break
-                except (RobotError, httpx.HTTPError) as err:
-                    if time.monotonic() > deadline:
-                        raise RuntimeError(f"robot at {self.robot_url} not reachable: {err}") from None
-                    time.sleep(1.0)
-        waiting.remove()
+    def connect(self, timeout: float | None = None) -> None:
+        """Build the panels and the scene at once from the console's own copy of the robot's
+        catalog (Send shows without waiting a round trip), and meet the robot in the background;
+        with `timeout`, wait that long for it (the scene drawn) or raise."""
+        replay = None
+        if self.replay:  # a replay's stand-in is local, never behind a link: asking costs nothing
+            replay = replay_status(self.robot_url, self.token)
+            if replay is None:
+                raise RuntimeError(f"{self.robot_url} is not a replay (GET /_replay did not answer)")
+        local = Catalog.local()
+        presets = dict(local.presets)
         self._dither_presets = presets.pop("dither")
-        self._tasks = {t.name: t.summary for t in tasks}
+        self._tasks = {t.name: t.summary for t in local.tasks}
         self._stiffness_presets = presets
-        self.scene_name = geometry.scene
         self.view = RobotView(self.server, self.defaults.wrench_arrow_m_per_n)
         self.bar = StatusBar(self.server.gui, self._bar_inputs, self._on_level)
-        scene_names = [s.name for s in scene_list]
-        self.board = Board(self.server.gui, scene_names, geometry.scene, self.defaults.plot_s)
+        scene_names = [s.name for s in local.scenes]
+        self.board = Board(self.server.gui, scene_names, scene_names[0], self.defaults.plot_s)
         if replay is not None:
             self.playback = Playback(self.server.gui, self.robot_url, self.token, replay, self._replay_jumped)
             self.bar.stop.visible = False  # nothing moves on a recording
@@ -129,9 +120,10 @@ class ConsoleApp:
         self.board.reset_scene.on_click(lambda _: self.reset_scene())
         self.seat.on_change(self._seat_changed)
         self.server.on_client_connect(self._client_connected)
-        # The meshes go out after the panels: a browser shows Send before it has drawn the scene.
-        self._reload_geometry(geometry)
         self.server.on_client_disconnect(self._client_disconnected)
+        # The meshes go out after the panels, when the robot has answered.
+        self.handshake = Handshake(self.client, local, self._met_robot)
+        self.handshake.start()
         self.feed = TelemetryFeed(self.client, self._on_state, self._on_command, self._on_link)
         self.link_poller = LinkPoller(self.robot_url, self.token, self._on_link_profile)
         self.feed.start()
@@ -139,6 +131,21 @@ class ConsoleApp:
         self.bar.start()
         if self.playback is not None:
             self.playback.start()
+        if timeout is not None and not self.handshake.wait(timeout):
+            raise RuntimeError(f"robot at {self.robot_url} not reachable within {timeout:g} s")
+
+    def _met_robot(self, geometry: GeometryModel, differences: list[str]) -> None:
+        """(handshake thread) The robot answered: draw its scene; say if its catalog differs."""
+        if self._closed:
+            return
+        self._reload_geometry(geometry)
+        if differences:
+            self._notify(
+                "This console is not the robot's version",
+                f"the robot's {', '.join(differences)} differ from what this console shows; "
+                "commands are checked by the robot, which names anything it does not know",
+                "orange",
+            )
 
     # ---------------------------------------------------------------- desks
     def _client_connected(self, client: viser.ClientHandle) -> None:
@@ -260,6 +267,8 @@ class ConsoleApp:
         with self.server.atomic():
             self.view.load(geometry)
         self.scene_name = geometry.scene
+        if self.board is not None:
+            self.board.show_scene(geometry.scene)
         for desk in self.desks():
             desk.panel.show_scene_task(geometry.scene)
 
@@ -275,7 +284,7 @@ class ConsoleApp:
         self._check_instance(state["instance"])
         if previous is not None and state["seq"] > previous["seq"] + 1:
             self._reconcile_soon()  # messages were lost: an end event may be among them
-        if state["scene"] != self.scene_name:
+        if state["scene"] != self.scene_name and self.handshake is not None and self.handshake.met:
             self.scene_name = state["scene"]
             threading.Thread(target=self._reload_geometry, daemon=True).start()
         if previous is None or state["gains"] != previous["gains"]:
@@ -436,12 +445,17 @@ class ConsoleApp:
 
     def threads_running(self) -> list[str]:
         """The console's own threads still alive (all stop in close())."""
-        parts = [("status bar", self.bar), ("telemetry", self.feed), ("link poller", self.link_poller)]
+        parts = [
+            ("handshake", self.handshake),
+            ("status bar", self.bar),
+            ("telemetry", self.feed),
+            ("link poller", self.link_poller),
+        ]
         return [name for name, part in parts if part is not None and part.running]
 
     def close(self) -> None:
         self._closed = True
-        for part in (self.bar, self.feed, self.link_poller, self.playback):
+        for part in (self.handshake, self.bar, self.feed, self.link_poller, self.playback):
             if part is not None:
                 part.close()
         # viser first, while the front door still carries its close handshake to the browsers:

@@ -30,6 +30,11 @@ class Board:
             self.reset_scene = gui.add_button("Reset scene")
             self.link = gui.add_markdown("link: unknown")
 
+    def show_scene(self, scene: str) -> None:
+        """The scene the robot has loaded, as the reset dropdown's choice."""
+        handle: Any = self.scene
+        handle.value = scene
+
     def show_command(self, view: Any) -> None:
         self.command_status.content = _command_html(view)
 

@@ -7,12 +7,17 @@ from web.app import ConsoleApp
 
 
 def run_console(
-    robot_url: str, host: str, port: int, token: str | None, allow_origins: tuple[str, ...] = ()
+    robot_url: str,
+    host: str,
+    port: int,
+    token: str | None,
+    allow_origins: tuple[str, ...] = (),
+    replay: bool = False,
 ) -> None:
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda signum, frame: stop.set())
-    app = ConsoleApp(robot_url, host=host, port=port, token=token, allow_origins=allow_origins)
+    app = ConsoleApp(robot_url, host=host, port=port, token=token, allow_origins=allow_origins, replay=replay)
     print(f"ptwl console: operator console on {app.url} (robot via {robot_url})", flush=True)
     try:
         app.connect()

@@ -10,6 +10,8 @@ own contemplated target lives on its desk. Markers, after the two papers:
 - grey robot with a STALE label when the state on screen can no longer be trusted.
 """
 
+import threading
+
 import numpy as np
 import viser
 
@@ -30,6 +32,10 @@ class RobotView:
     def __init__(self, server: viser.ViserServer, arrow_m_per_n: float) -> None:
         self.server = server
         self.arrow_m_per_n = arrow_m_per_n
+        # The telemetry thread moves bodies, the status bar greys them, a scene load replaces
+        # them (the robot's first answer, a reset): one at a time, or one of them touches a
+        # mesh another has just removed.
+        self._lock = threading.RLock()
         self._bodies: dict[str, viser.FrameHandle] = {}
         self._meshes: list[tuple[viser.MeshHandle, MeshPart]] = []
         self.stale = False
@@ -86,6 +92,10 @@ class RobotView:
     # -------------------------------------------------------------- geometry
     def load(self, geometry: GeometryModel) -> None:
         """(Re)build the bodies for a scene."""
+        with self._lock:
+            self._load(geometry)
+
+    def _load(self, geometry: GeometryModel) -> None:
         for handle in [*(m for m, _ in self._meshes), *self._bodies.values()]:
             handle.remove()
         self._meshes, self._bodies = [], {}
@@ -115,6 +125,10 @@ class RobotView:
         """Move everything to a telemetry state (call inside server.atomic()).
 
         Only what moved is sent: every assignment is a message to every browser."""
+        with self._lock:
+            self._update(state)
+
+    def _update(self, state: dict) -> None:
         for name, pose in state.get("bodies", {}).items():
             frame = self._bodies.get(name)
             if frame is not None:
@@ -130,7 +144,7 @@ class RobotView:
             self.wrench.points = arrow
         if self._moved("/port-line", tip):
             self._port = tip
-            self.show_commanded(*self._commanded)
+            self._show_commanded(*self._commanded)
 
     def _moved(self, key: str, values: np.ndarray) -> bool:
         last = self._sent.get(key)
@@ -148,6 +162,10 @@ class RobotView:
     def show_commanded(self, target: Pose | None, resolved: bool = False) -> None:
         """The commanded target: solid where the robot resolved it, an outline where it is only
         predicted from the delayed port; hidden for None."""
+        with self._lock:
+            self._show_commanded(target, resolved)
+
+    def _show_commanded(self, target: Pose | None, resolved: bool) -> None:
         self._commanded = (target, resolved)
         marker = self.commanded if resolved else self.predicted
         other = self.predicted if resolved else self.commanded
@@ -156,6 +174,10 @@ class RobotView:
 
     def set_stale(self, stale: bool, label: str = "STALE") -> None:
         """Grey the robot out (and say so) while its state cannot be trusted; colour it back after."""
+        with self._lock:
+            self._set_stale(stale, label)
+
+    def _set_stale(self, stale: bool, label: str) -> None:
         self.stale = stale
         self.stale_label.text = label
         self.stale_label.visible = stale

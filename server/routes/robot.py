@@ -4,9 +4,9 @@ from typing import Any
 
 from fastapi import APIRouter
 
-from robot_sim.presets import default_presets
 from robot_sim.telemetry import task_fields
-from server.models import SIM_RESPONSES, GainsPreset, HealthModel, RobotStateModel, TaskModel
+from server.catalog import preset_catalog
+from server.models import SIM_RESPONSES, HealthModel, RobotStateModel, TaskModel
 from server.routes.deps import Book, DoneWaiters, Runner, on_sim_thread
 
 router = APIRouter(prefix="/api", tags=["robot"])
@@ -50,12 +50,4 @@ async def task(runner: Runner) -> TaskModel:
 async def presets() -> dict[str, Any]:
     """Stiffness/damping presets by name, `{name: {stiffness, damping}}`, plus the dither presets
     under `dither`."""
-    loaded = default_presets()
-    out: dict[str, Any] = {
-        name: GainsPreset(
-            **spec.model_dump(), description=loaded.stiffness_descriptions.get(name, "")
-        ).model_dump()
-        for name, spec in loaded.stiffness.items()
-    }
-    out["dither"] = {name: p.model_dump(exclude={"type", "preset"}) for name, p in loaded.dither.items()}
-    return out
+    return preset_catalog()

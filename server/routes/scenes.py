@@ -2,8 +2,7 @@
 
 from fastapi import APIRouter
 
-from robot_sim.policies import POLICIES
-from robot_sim.scenes import SCENES
+from server.catalog import scene_catalog, task_catalog
 from server.models import SIM_RESPONSES, GeometryModel, SceneModel, SceneRequest, StopResult, TaskInfoModel
 from server.routes.deps import Runner, on_sim_thread
 
@@ -12,21 +11,14 @@ router = APIRouter(prefix="/api", tags=["scenes"])
 
 @router.get("/scenes", response_model=list[SceneModel])
 async def scenes() -> list[SceneModel]:
-    return [SceneModel(name=s.name, description=s.description) for s in SCENES.values()]
+    return scene_catalog()
 
 
 @router.get("/tasks", response_model=list[TaskInfoModel])
 async def tasks() -> list[TaskInfoModel]:
     """Tasks whose state machine runs onboard as one command: `POST /api/commands` with
     `{"type": "state_machine", "task": NAME}` while the scene NAME is loaded."""
-    return [
-        TaskInfoModel(
-            name=name,
-            summary=policy.summary,
-            settings=policy.settings_model.model_json_schema()["properties"],
-        )
-        for name, policy in POLICIES.items()
-    ]
+    return task_catalog()
 
 
 @router.post("/scene", response_model=StopResult, responses=SIM_RESPONSES)
