@@ -8,10 +8,14 @@ records a second, nothing next to the proxy's own work.
 
 import json
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import IO, Any, Protocol
+from typing import IO, TYPE_CHECKING, Any, Protocol
 
 from latency.delay_line import Dropped, Entry
+
+if TYPE_CHECKING:
+    from recording.writer import SessionRecorder
 
 
 def released_fields(entry: Entry, now: float) -> dict[str, Any]:
@@ -65,23 +69,30 @@ class JsonLinesRecorder:
 
 
 class McapRecorder:
-    """Log times are Unix nanoseconds when the record was made, so a link file lines up with the
-    robot's recording of the same session; arrival and release stay on the link's clock."""
+    """Into a recording's `/link/messages` (recording/writer.py's SessionRecorder). `stamp` makes
+    a record's log time from the link-clock time it happened (a release, or a drop's arrival):
+    the proxy uses the wall clock, so a link file lines up with the robot's recording of the
+    same session; a virtual-time trial uses its own clock."""
 
-    def __init__(self, path: Path) -> None:
-        from recording.writer import SessionRecorder, versions  # only an MCAP record needs it
-
-        self._file = SessionRecorder(path, {"source": "ptwl proxy", **versions()})
+    def __init__(self, out: "SessionRecorder", stamp: Callable[[float], int]) -> None:
+        self._out = out
+        self._stamp = stamp
 
     def released(self, entry: Entry, now: float) -> None:
-        self._file.link(released_fields(entry, now), time.time_ns())
+        self._out.link(released_fields(entry, now), self._stamp(now))
 
     def dropped(self, drop: Dropped) -> None:
-        self._file.link(dropped_fields(drop), time.time_ns())
+        self._out.link(dropped_fields(drop), self._stamp(drop.arrival))
 
     def close(self) -> None:
-        self._file.close()
+        self._out.close()
 
 
 def open_recorder(path: Path) -> Recorder:
-    return McapRecorder(path) if path.suffix == ".mcap" else JsonLinesRecorder(path)
+    if path.suffix != ".mcap":
+        return JsonLinesRecorder(path)
+    from recording.writer import SessionRecorder, versions  # only an MCAP record needs it
+
+    return McapRecorder(
+        SessionRecorder(path, {"source": "ptwl proxy", **versions()}), lambda _: time.time_ns()
+    )

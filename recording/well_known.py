@@ -49,24 +49,29 @@ def timestamp(ns: int) -> Timestamp:
     return Timestamp(ns // 1_000_000_000, ns % 1_000_000_000)
 
 
+def vector(xyz: list[float]) -> Vector3:
+    return Vector3(x=xyz[0], y=xyz[1], z=xyz[2])
+
+
+def quaternion(wxyz: list[float]) -> Quaternion:
+    """Ours are w x y z (MuJoCo's); Foxglove names its fields."""
+    w, x, y, z = wxyz
+    return Quaternion(x=x, y=y, z=z, w=w)
+
+
 def pose_of(position: list[float], quat_wxyz: list[float]) -> Pose:
-    w, x, y, z = quat_wxyz
-    return Pose(
-        position=Vector3(x=position[0], y=position[1], z=position[2]),
-        orientation=Quaternion(x=x, y=y, z=z, w=w),
-    )
+    return Pose(position=vector(position), orientation=quaternion(quat_wxyz))
 
 
 def transform(
     ns: int, child: str, position: list[float], quat_wxyz: list[float], parent: str = BASE_FRAME
 ) -> FrameTransform:
-    w, x, y, z = quat_wxyz
     return FrameTransform(
         timestamp=timestamp(ns),
         parent_frame_id=parent,
         child_frame_id=child,
-        translation=Vector3(x=position[0], y=position[1], z=position[2]),
-        rotation=Quaternion(x=x, y=y, z=z, w=w),
+        translation=vector(position),
+        rotation=quaternion(quat_wxyz),
     )
 
 

@@ -13,7 +13,7 @@ from server.commands import CommandBook, CommandRecord
 from server.config import BODY_LIMIT_BYTES, HISTORY_MAX, QUEUE_MAX, ServerConfig
 from server.errors import install_error_handlers
 from server.models import COMMON_RESPONSES
-from server.recording import GEOMETRY_WAIT_S, RecordingThread, session_metadata
+from server.recording import RecordingThread, session_metadata
 from server.routes import commands, debug, robot, scenes, telemetry
 from server.runner import SimRunner, command_event
 from server.telemetry import Broadcaster
@@ -49,12 +49,9 @@ def create_app(config: ServerConfig) -> FastAPI:
         book = CommandBook(QUEUE_MAX, HISTORY_MAX, on_change)
         runner = SimRunner(config.scene, config.seed, config.telemetry_hz, book, publish)
         if config.record is not None:
-            recording = RecordingThread(
-                config.record,
-                session_metadata(config),
-                geometry=lambda: runner.call(runner.geometry).result(GEOMETRY_WAIT_S),
-            )
+            recording = RecordingThread(config.record, session_metadata(config))
             runner.on_step = recording.step
+            runner.on_scene_loaded = recording.geometry
             recording.start()
         app.state.broadcaster = broadcaster
         app.state.waiters = waiters

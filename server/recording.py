@@ -3,22 +3,20 @@
 The simulation thread and the event loop only stamp and enqueue (a clock read and a queue put:
 recording must not disturb the robot); this thread decodes, converts and writes. It records
 the telemetry stream as sent, every command event, every behavior a command ran, and the
-scene's geometry whenever the scene (re)loads: on start, on reset, after a fault's reload.
+scene's geometry whenever the runner says the scene (re)loaded: on start, on reset, after a
+fault's reload (queued before the first state of that load, so the file draws what it moves).
 """
 
 import json
 import queue
 import threading
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from recording.writer import SessionRecorder, versions
 from robot_sim.policies.run import StepRecord
 from server.config import ServerConfig
-
-GEOMETRY_WAIT_S = 5.0
 
 
 def session_metadata(config: ServerConfig) -> dict[str, str]:
@@ -34,13 +32,10 @@ def session_metadata(config: ServerConfig) -> dict[str, str]:
 
 
 class RecordingThread:
-    def __init__(self, path: Path, metadata: dict[str, str], geometry: Callable[[], dict[str, Any]]) -> None:
+    def __init__(self, path: Path, metadata: dict[str, str]) -> None:
         self._recorder = SessionRecorder(path, metadata)
-        self._geometry = geometry  # blocks until the simulation thread answers
         self._inbox: queue.SimpleQueue[tuple[str, Any, int] | None] = queue.SimpleQueue()
         self._thread = threading.Thread(target=self._run, name="ptwl-record", daemon=True)
-        self._scene_key: tuple[Any, ...] | None = None
-        self._last_sim_time = 0.0
         self.failures = 0  # messages that could not be recorded (the first is reported)
 
     # ------------------------------------------------ from any thread: stamp and go
@@ -49,6 +44,9 @@ class RecordingThread:
 
     def command(self, text: str) -> None:
         self._inbox.put(("command", text, time.time_ns()))
+
+    def geometry(self, geometry: dict[str, Any]) -> None:
+        self._inbox.put(("geometry", geometry, time.time_ns()))
 
     def step(self, command_id: int, step: StepRecord) -> None:
         self._inbox.put(("step", (command_id, step), time.time_ns()))
@@ -76,19 +74,11 @@ class RecordingThread:
 
     def _record(self, kind: str, payload: Any, ns: int) -> None:
         if kind == "state":
-            self._on_state(json.loads(payload), ns)
+            self._recorder.state(json.loads(payload), ns)
         elif kind == "command":
             self._recorder.command(json.loads(payload), ns)
+        elif kind == "geometry":
+            self._recorder.geometry(payload, ns)
         else:
             command_id, step = payload
             self._recorder.step(command_id, step.as_dict(), ns)
-
-    def _on_state(self, message: dict[str, Any], ns: int) -> None:
-        # A new scene, a fault's reload or a reset (sim time went back): record the geometry
-        # before the first state of it, so the file draws what that state moves.
-        key = (message["scene"], message.get("faults"))
-        if key != self._scene_key or message["sim_time"] < self._last_sim_time:
-            self._scene_key = key
-            self._recorder.geometry(self._geometry(), ns)
-        self._last_sim_time = message["sim_time"]
-        self._recorder.state(message, ns)

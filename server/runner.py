@@ -60,11 +60,14 @@ class SimRunner:
         self._next_telemetry = 0.0
         self.latest_state: dict[str, Any] = self._state()
         self.last_fault: str | None = None
-        self.on_step: Callable[[int, StepRecord], None] | None = None  # (simulation thread) a recorder's
+        # (simulation thread) A recorder's: each behavior a command ran, and each scene load's
+        # geometry (start, reset, a fault's reload), before the first state of that load.
+        self.on_step: Callable[[int, StepRecord], None] | None = None
+        self.on_scene_loaded: Callable[[dict[str, Any]], None] | None = None
 
     # ----------------------------------------------------------------- lifecycle
     def start(self) -> None:
-        self._pacer.rebase()
+        self._scene_loaded()  # before the thread runs: this thread is still the only one
         self._thread.start()
 
     def close(self) -> None:
@@ -92,8 +95,7 @@ class SimRunner:
         stopped = self.stop_all()
         self.sim.reset(name, seed)
         self._moving = moving_bodies(self.sim.model)
-        self._pacer.rebase()
-        self._next_telemetry = 0.0
+        self._scene_loaded()
         self.latest_state = self._state()
         return stopped
 
@@ -138,8 +140,14 @@ class SimRunner:
         self._pacer.advance(on_report=self._command_done)
         if self.sim.fault_count != faults_before:
             self.last_fault = self.sim.last_fault
-            self._pacer.rebase()  # the scene reloaded at t = 0
-            self._next_telemetry = 0.0
+            self._scene_loaded()  # the physics faulted: the scene reloaded at t = 0
+
+    def _scene_loaded(self) -> None:
+        """(simulation thread) A scene (re)loaded at sim time 0: pace and publish from there."""
+        self._pacer.rebase()
+        self._next_telemetry = 0.0
+        if self.on_scene_loaded is not None:
+            self.on_scene_loaded(self.geometry())
 
     def _command_done(self, report: BehaviorReport) -> None:
         """A behavior ended: the command's end, or a state machine's step (executor.py)."""

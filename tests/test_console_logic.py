@@ -411,3 +411,30 @@ def test_the_consoles_own_catalog_is_the_robots_and_a_difference_is_named(server
         answered.tasks[1:],
     )
     assert local.differences(other) == ["presets", "tasks"]
+
+
+def test_a_replay_seek_makes_the_history_exactly_the_robots_records_then() -> None:
+    history = CommandHistory()
+    history.event(
+        {"id": 9, "behavior": "ptwl", "status": "running", "instance": "a"}
+    )  # shown before the seek
+    records = [
+        {
+            "id": 3,
+            "type": "ptwl",
+            "status": "done",
+            "exit": "wrench_breach",
+            "peak_force": 20.0,
+            "instance": "a",
+        },
+        {"id": 4, "type": "state_machine", "status": "running", "exit": None, "instance": "a"},
+    ]
+    history.replace(records)
+    assert [(v.id, v.behavior, v.status) for v in history.recent()] == [
+        (3, "ptwl", "wrench_breach"),
+        (4, "state_machine", "running"),
+    ]
+    assert history.recent()[0].peak_force == 20.0
+    assert [v.id for v in history.live()] == [4]  # #9 has not happened yet at that time
+    history.replace([])
+    assert history.latest() is None

@@ -110,6 +110,9 @@ def test_record_writes_each_trial_whose_report_is_its_row(
         up = [m for m in link if m["direction"] == "uplink"]
         assert len(up) == row["commands_sent"] and len(link) == 3 * row["commands_sent"]
         assert all(m["realized_delay"] == pytest.approx(row["rtt_s"] / 2, abs=1e-9) for m in link)
+        # ... each logged when it left the link, on the trial's clock.
+        stamped = recording.on("/link/messages")
+        assert all(m.log_time_ns == round(m.value["release"] * 1e9) for m in stamped)
         # Telemetry at 50 Hz of the trial's own clock.
         times = [m.log_time_ns for m in recording.on("/ptwl/telemetry")]
         steps = {b - a for a, b in itertools.pairwise(times)}

@@ -341,9 +341,8 @@ class ConsoleApp:
         lost = self.history.robot_instance(instance)
         if lost is None:
             return
-        if any(v is self._commanded for v in lost) and self.view is not None and self.board is not None:
-            self.view.show_commanded(None)
-            self.board.show_commanded(None)
+        if any(v is self._commanded for v in lost):
+            self._hide_commanded()
         labels = ", ".join(f"{v.behavior.upper()} {v.label}" for v in lost) or "none"
         self._notify("Robot restarted", f"commands it had not finished are lost: {labels}", "red")
         self._show_command(self.history.latest())
@@ -368,11 +367,16 @@ class ConsoleApp:
             return
         self.history.replace([r.model_dump() for r in records])
         self._commanded = None
-        if self.board is not None and self.view is not None:
+        self._hide_commanded()
+        if self.board is not None:
             self.board.plots.clear()
+        self._show_command(self.history.latest())
+
+    def _hide_commanded(self) -> None:
+        """No commanded target on screen: its command is lost, or a replay left its time."""
+        if self.view is not None and self.board is not None:
             self.view.show_commanded(None)
             self.board.show_commanded(None)
-        self._show_command(self.history.latest())
 
     def _reconcile_soon(self) -> None:
         """Re-read the robot's records in the background (at most one re-read at a time)."""

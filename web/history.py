@@ -118,11 +118,9 @@ class CommandHistory:
                 if view is None:
                     if record["status"] == "done":
                         continue  # finished before this console knew of it: not news
-                    view = CommandView(0, record["type"], "queued", id=int(record["id"]))
-                    self._views.append(view)
-                    self._by_id[view.id] = view  # type: ignore[index]
+                    view = self._add_record_view(record)
                 was_done = view.phase == "done"
-                _apply(view, {**record, "behavior": record["type"]})
+                _apply_record(view, record)
                 if view.phase == "done" and not was_done:
                     ended.append(view)
         return ended
@@ -133,10 +131,14 @@ class CommandHistory:
         with self._lock:
             self._views, self._by_id, self._early = [], {}, {}
             for record in records:
-                view = CommandView(0, record["type"], "queued", id=int(record["id"]))
-                _apply(view, {**record, "behavior": record["type"]})
-                self._views.append(view)
-                self._by_id[view.id] = view  # type: ignore[index]
+                _apply_record(self._add_record_view(record), record)
+
+    def _add_record_view(self, record: dict[str, Any]) -> CommandView:
+        """(under the lock) A view for a record of the robot's this console had not shown."""
+        view = CommandView(0, record["type"], "queued", id=int(record["id"]))
+        self._views.append(view)
+        self._by_id[int(record["id"])] = view
+        return view
 
     def live(self) -> list[CommandView]:
         """Commands this console shows as queued or running."""
@@ -183,6 +185,11 @@ class CommandHistory:
                 "peak_force": max(forces, default=0.0),
                 "peak_torque": max(torques, default=0.0),
             }
+
+
+def _apply_record(view: CommandView, record: dict[str, Any]) -> None:
+    """A record (GET /api/commands) names the command's type `type`; an event, `behavior`."""
+    _apply(view, {**record, "behavior": record["type"]})
 
 
 def _apply(view: CommandView, message: dict[str, Any]) -> None:

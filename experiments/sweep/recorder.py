@@ -13,8 +13,7 @@ from typing import Any
 from experiments.sweep.robot import Done, VirtualRobot
 from experiments.sweep.spec import TrialSpec
 from latency.clock import SimulatedLink
-from latency.delay_line import Dropped, Entry
-from latency.record import dropped_fields, released_fields
+from latency.record import McapRecorder
 from recording.writer import SessionRecorder, versions
 from robot_sim.executor import CommandParams
 from robot_sim.geometry import moving_bodies, scene_geometry
@@ -26,22 +25,6 @@ INSTANCE = "sweep"
 
 def _ns(t_s: float) -> int:
     return round(t_s * 1e9)
-
-
-class _LinkRecord:
-    """The link's per-message record (latency/record.py's Recorder), on the trial's clock."""
-
-    def __init__(self, out: SessionRecorder) -> None:
-        self._out = out
-
-    def released(self, entry: Entry, now: float) -> None:
-        self._out.link(released_fields(entry, now), _ns(now))
-
-    def dropped(self, drop: Dropped) -> None:
-        self._out.link(dropped_fields(drop), _ns(drop.arrival))
-
-    def close(self) -> None:
-        pass
 
 
 class TrialRecorder:
@@ -60,7 +43,8 @@ class TrialRecorder:
         self._steps = 0
         self._next_state_s = 0.0
         self._seq = 0  # the state messages' sequence number, from 1, as the server's
-        link.link.recorder = _LinkRecord(self._out)
+        # Both directions of the link, on the trial's clock, into this file (closed by close()).
+        link.link.recorder = McapRecorder(self._out, _ns)
         sim = robot.sim
         self._out.geometry({"scene": sim.scene.name, **scene_geometry(sim.model, sim.data)}, 0)
 

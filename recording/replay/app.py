@@ -146,12 +146,12 @@ async def _stream(ws: WebSocket, timeline: Timeline, player: Player) -> None:
             head = player.now()
             if player.jumps != jumps:
                 jumps, last_ns = player.jumps, head.position_ns
-                texts = [_text(timeline.state_at(last_ns))]
+                texts = [json.dumps(timeline.state_at(last_ns))]
             else:
                 texts = [o.text for o in timeline.between(last_ns, head.position_ns)]
                 last_ns = head.position_ns
                 if not texts and time.monotonic() - last_sent > KEEPALIVE_S:
-                    texts = [_text(timeline.state_at(last_ns))]
+                    texts = [json.dumps(timeline.state_at(last_ns))]
             for text in texts:
                 await ws.send_text(stamped(text))
             if texts:
@@ -159,10 +159,6 @@ async def _stream(ws: WebSocket, timeline: Timeline, player: Player) -> None:
             await asyncio.wait({closed}, timeout=SEND_EVERY_S)
     finally:
         closed.cancel()
-
-
-def _text(state: dict[str, Any]) -> str:
-    return json.dumps(state)
 
 
 def _status(timeline: Timeline, player: Player) -> ReplayStatus:
