@@ -62,7 +62,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
         signal.signal(sig, lambda signum, frame: stop.set())
     flags = ["--speed", f"{args.speed}", *(["--paused"] if args.paused else [])]
     # Not echoed: the first "on http://" a launcher sees must be the console's.
-    robot = start("replay-serve", str(args.file), "--port", str(free_port()), *flags, health="/_replay")
+    try:
+        robot = start("replay-serve", str(args.file), "--port", str(free_port()), *flags, health="/_replay")
+    except RuntimeError as err:  # it said why (a file that is no recording) as it exited
+        raise ValueError(str(err).rsplit("ptwl: ", 1)[-1].strip()) from None
     for line in robot.output:  # what it said besides its URL (a file cut short)
         if " on http://" not in line:
             print(f"[replay] {line}", end="", flush=True)

@@ -46,9 +46,11 @@ def read(path: Path) -> Recording:
     schemas: dict[int, Schema] = {}
     channels: dict[int, tuple[Channel, Callable[[bytes], Any]]] = {}
     protobuf = ProtobufDecoders()
+    header = False
     with path.open("rb") as stream:
         try:
             for record in StreamReader(stream, skip_magic=False, emit_chunks=False).records:
+                header = True  # the first record read is the header (the reader checked the magic)
                 if isinstance(record, Schema):
                     schemas[record.id] = record
                 elif isinstance(record, Channel):
@@ -66,6 +68,8 @@ def read(path: Path) -> Recording:
                 elif isinstance(record, DataEnd):
                     recording.complete = True
         except (McapError, EOFError, ValueError, struct.error) as err:  # cut short: keep what was whole
+            if not header:  # it never began as MCAP does
+                raise ValueError(f"{path}: not an MCAP recording ({type(err).__name__})") from None
             recording.problem = f"{type(err).__name__}: {err}".rstrip(": ")
     return recording
 

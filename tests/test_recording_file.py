@@ -262,3 +262,18 @@ def test_the_readme_documents_every_topic_and_schema() -> None:
     readme = (Path(__file__).parent.parent / "README.md").read_text()
     for topic in topics.ALL:
         assert f"`{topic.name}`" in readme and topic.schema.split(".")[1] in readme, topic.name
+
+
+def test_a_file_that_is_no_recording_is_named_as_such(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from ptwl.cli import main
+
+    bogus = tmp_path / "notes.mcap"
+    bogus.write_text("these are my notes, not an MCAP file\n")
+    with pytest.raises(ValueError, match="not an MCAP recording"):
+        read(bogus)
+    assert main(["report", str(bogus)]) == 2
+    assert "not an MCAP recording" in capsys.readouterr().err
+    assert main(["report", str(tmp_path / "missing.mcap")]) == 2
+    assert "no recording" in capsys.readouterr().err

@@ -227,3 +227,27 @@ def robot_url(output: list[str]) -> str:
     """The replay's robot stand-in, as `ptwl replay` announced it."""
     line = next(line for line in output if "replaying" in line)
     return line.split(" robot ")[1].split()[0]
+
+
+def test_the_stand_in_checks_host_and_origin_and_stays_on_loopback(
+    timeline: Timeline, recording_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from starlette.testclient import WebSocketDenialResponse
+
+    from ptwl.cli import main
+
+    client, _ = _client(timeline)
+    assert client.get("/_replay").status_code == 200
+    assert client.get("/_replay", headers={"host": "evil.example:8123"}).status_code == 400  # rebinding
+    with (
+        pytest.raises(WebSocketDenialResponse) as denied,
+        client.websocket_connect(
+            "ws://127.0.0.1:8123/api/telemetry", headers={"origin": "http://evil.example"}
+        ),
+    ):
+        pass
+    assert denied.value.status_code == 403
+    response = client.put("/_replay", json={"playing": True}, headers={"origin": "http://evil.example"})
+    assert response.status_code == 403  # a foreign page cannot drive the playhead either
+    assert main(["replay-serve", str(recording_path), "--host", "0.0.0.0"]) == 2
+    assert "needs an access token" in capsys.readouterr().err

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import uvicorn
 
-from guard.access import AccessPolicy
+from guard.access import AccessPolicy, check_token_setting
 from recording.reader import read
 from recording.replay.app import create_replay_app
 from recording.replay.player import Player
@@ -22,6 +22,7 @@ def load(path: Path) -> Timeline:
 
 
 def serve_replay(path: Path, host: str, port: int, play: bool, speed: float) -> None:
+    check_token_setting(None, host)  # no token here: loopback only, as every server of ours
     timeline = load(path)
     player = Player(timeline.start_ns, timeline.end_ns)
     player.set(playing=play, speed=speed)
