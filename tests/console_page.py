@@ -4,9 +4,12 @@ The 3D scene is WebGL, which the DOM cannot see, so the console mirrors what it 
 status lines (data-* attributes and text), updated in the same batch as the scene; these read them.
 """
 
+import io
 import re
 
 import httpx
+import numpy as np
+from PIL import Image
 
 from ptwl.launcher import ServiceProcess
 
@@ -96,3 +99,20 @@ def wait_text(page, text: str, timeout_s: float) -> None:  # type: ignore[no-unt
     page.wait_for_function(
         f"document.querySelector('#ptwl-bar')?.innerText.includes({text!r})", timeout=timeout_s * 1000
     )
+
+
+def view_hsv(page):  # type: ignore[no-untyped-def]
+    """The 3D view's pixels as HSV (hue in degrees, saturation and value 0-1); viser's axes
+    triad in the bottom-left corner is blanked, its colours being those of any marker."""
+    png = page.locator("canvas").first.screenshot()
+    hsv = np.asarray(Image.open(io.BytesIO(png)).convert("RGB").convert("HSV"), dtype=float)
+    hsv[..., 0] *= 360.0 / 255.0
+    hsv[..., 1:] /= 255.0
+    hsv[-100:, :100] = 0.0
+    return hsv
+
+
+def pixels_of_hue(hsv, low_deg: float, high_deg: float, min_saturation: float) -> int:  # type: ignore[no-untyped-def]
+    """How many pixels have a hue in [low, high] and are coloured (not grey, not dark)."""
+    hue, saturation, value = hsv[..., 0], hsv[..., 1], hsv[..., 2]
+    return int(((hue >= low_deg) & (hue <= high_deg) & (saturation > min_saturation) & (value > 0.2)).sum())

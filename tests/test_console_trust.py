@@ -16,9 +16,11 @@ from tests.console_page import (
     inputs_for,
     open_console,
     open_consoles,
+    pixels_of_hue,
     port_mm,
     send,
     set_fields,
+    view_hsv,
     wait_status,
 )
 
@@ -304,19 +306,31 @@ def test_checks_before_send_and_defaults_that_do_not_bite(browser, stack, calm) 
     page.wait_for_function("document.querySelector('#ptwl-check-ptwl')?.dataset.valid === '0'", timeout=5e3)
     assert "force_threshold" in check.inner_text() and "500" in check.inner_text()
     assert page.get_by_role("button", name="Send cmd").is_disabled()
+    before = command_id(page)
+    inputs_for(page, "Force threshold [N]").first.press("Enter")  # Enter obeys the same rule:
+    page.wait_for_timeout(500)  # nothing goes out, so nothing is refused
+    assert command_id(page) == before and page.get_by_text("Command refused").count() == 0
     set_fields(page, "Force threshold [N]", 20)
     page.wait_for_function("document.querySelector('#ptwl-check-ptwl')?.dataset.valid === '1'", timeout=5e3)
     assert page.get_by_role("button", name="Send cmd").is_enabled()
-    # Keys (once the focus has left the field): Escape clears the target, Enter sends.
+    # Escape (once the focus has left the fields) clears the target.
     set_fields(page, "Translation [mm]", 0, 0, -5)
     page.evaluate("document.activeElement.blur()")
     page.keyboard.press("Escape")
     page.wait_for_function(CLEARED, timeout=5e3)
-    set_fields(page, "Translation [mm]", 0, 0, -5)
-    page.evaluate("document.activeElement.blur()")
-    before = command_id(page)
-    page.keyboard.press("Enter")
-    wait_status(page, "goal_reached", after=before)
+    # Enter in a field sends the tab's command with what the fields show, once.
+    with RobotClient(robot.url) as client:
+        sent_before = len(client.commands(limit=100))
+        z_mm = inputs_for(page, "Translation [mm]").nth(2)
+        z_mm.select_text()
+        z_mm.press_sequentially("-4", delay=80)  # typed as a person types
+        page.wait_for_timeout(150)  # a typist's pause: viser sends typed values at most every 50 ms
+        before = command_id(page)
+        z_mm.press("Enter")
+        wait_status(page, "goal_reached", after=before)
+        sent = client.commands(limit=100)
+    assert len(sent) == sent_before + 1
+    assert sent[-1].params["translation"] == [0.0, 0.0, -0.004]
     # A fast approach: the robot's impact rule, before Send.
     set_fields(page, "Translation [mm]", 0, 0, -100)
     set_fields(page, "Duration [s]", 0.5)
@@ -332,8 +346,9 @@ def test_checks_before_send_and_defaults_that_do_not_bite(browser, stack, calm) 
     before = send(page, "Send cmd")
     wait_status(page, "running", after=before)
     with RobotClient(robot.url) as client:
-        record = client.commands(limit=1)[0]
-    assert record.params["duration"] == 9.0 and record.params["watchdog"] == 14.0
+        records = client.commands(limit=100)
+    assert records[-1].params["duration"] == 9.0 and records[-1].params["watchdog"] == 14.0
+    assert len(records) == len(sent) + 1  # the button, inside the tab's form, sends once
     page.close()
 
 
@@ -397,3 +412,36 @@ def test_a_tasks_state_machine_runs_from_its_tab_and_shows_each_step(browser, st
     assert record.type == "state_machine" and record.exit == "completed" and record.sender
     page.close()
     watcher.close()
+
+
+YELLOW_HUE = (40.0, 62.0)  # the contemplated marker (250, 204, 21), also seen through a fixture
+MAGENTA_HUE = (270.0, 320.0)  # the force arrow (200, 40, 210); nothing else in the scene is
+
+
+def test_markers_show_through_fixtures_and_the_force_arrow_outside_the_tool(browser, stack, calm) -> None:  # type: ignore[no-untyped-def]
+    """In pixels, as the operator sees them. On main a press target inside the plate was hidden
+    by it and the force arrow was drawn up into the tool, in the arm's own orange."""
+    robot, _, console = stack
+    httpx.post(robot.url + "/api/scene", json={"name": "surface"}).raise_for_status()
+    page = open_console(browser, console.url)
+    page.mouse.move(370, 380)  # closer in, at the tool
+    for _ in range(4):
+        page.mouse.wheel(0, -200)
+    _, _, port_z_mm = port_mm(page)
+    inputs_for(page, "Frame").first.click()
+    page.get_by_role("option", name="base").click()
+    # The whole tool-shaped target below the plate's top (z = 220 mm): tip at 120 mm, shaft up
+    # to 218 mm. It shows through the plate (~450 pixels; none with an opaque plate).
+    set_fields(page, "Translation [mm]", 0, 0, 120.0 - port_z_mm)
+    page.wait_for_timeout(1000)
+    view = view_hsv(page)
+    assert pixels_of_hue(view, *YELLOW_HUE, min_saturation=0.35) > 150
+    assert pixels_of_hue(view, *MAGENTA_HUE, min_saturation=0.15) == 0  # no force, no arrow
+    # A press: the plate's push on the port is drawn from below, ending at the port (~35 pixels
+    # seen through the plate; none when drawn up inside the tool).
+    set_fields(page, "Translation [mm]", 0, 0, 212.0 - port_z_mm)
+    before = send(page, "Send cmd")
+    wait_status(page, "wrench_breach", after=before)
+    page.wait_for_timeout(500)
+    assert pixels_of_hue(view_hsv(page), *MAGENTA_HUE, min_saturation=0.15) > 10
+    page.close()

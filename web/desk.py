@@ -52,17 +52,19 @@ class Desk:
         panel.take_control.on_click(lambda _: seat.take(client.client_id))
         for behavior, button in panel.sends.items():
             button.on_click(self._sender(send, behavior))
+        for behavior, form in panel.forms.items():  # Enter in one of the tab's fields
+            form.on_submit(self._key_sender(send, behavior))
         for field in (panel.translation, panel.rotation, panel.frame, panel.show_gizmo):
             field.on_update(lambda _: self.fields_changed())
         for behavior in panel.sends:
             for field in panel.fields(behavior):
                 field.on_update(lambda _, b=behavior: self.recheck(b))
         self.gizmo.on_update(lambda _: self._gizmo_moved())
-        # Keyboard (viser's command palette hotkeys; like any page hotkey they act once the focus
-        # has left a text field, e.g. after Tab): Enter sends the PTWL as Send would, Escape
+        # Page keys (viser's command palette hotkeys, which act once the focus has left a text
+        # field, e.g. after dragging the target in 3D): Enter sends the PTWL as Send would, Escape
         # clears the contemplated target back to "no move".
         send_key = client.gui.add_command("Send PTWL", description="as the Send cmd button", hotkey="enter")
-        send_key.on_trigger(lambda _: self._send_from_key(send))
+        send_key.on_trigger(self._key_sender(send, "ptwl"))
         clear_key = client.gui.add_command(
             "Clear target", description="translation and rotation to 0", hotkey="escape"
         )
@@ -76,9 +78,14 @@ class Desk:
     def client_id(self) -> int:
         return self.client.client_id
 
-    def _send_from_key(self, send: SendFn) -> None:
-        if not self.panel.send_ptwl.disabled:  # the same rule as the button: in control, valid
-            send(self, "ptwl", self.params("ptwl"))
+    def _key_sender(self, send: SendFn, behavior: str) -> Callable[[Any], None]:
+        """A key's send: only what the tab's button would send now (in control, valid)."""
+
+        def send_if_enabled(_: Any) -> None:
+            if not self.panel.sends[behavior].disabled:
+                send(self, behavior, self.params(behavior))
+
+        return send_if_enabled
 
     def clear_contemplated(self) -> None:
         self.panel.set_ptwl_displacement(np.zeros(3), np.zeros(3))

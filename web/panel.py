@@ -40,7 +40,10 @@ class Panel:
         )
         tabs = gui.add_tab_group(order=FORM_ORDER + 0.2)
         d = defaults.ptwl
-        with tabs.add_tab("PTWL"):
+        # Each tab's fields sit in a form so Enter in any of them submits it: the desk sends it
+        # as its Send button would (viser's page hotkeys are ignored inside text fields).
+        self.forms: dict[str, viser.GuiFormHandle] = {}
+        with tabs.add_tab("PTWL"), gui.add_form(None) as self.forms["ptwl"]:
             self.translation = gui.add_vector3("Translation [mm]", tuple(d["translation_mm"]), step=0.1)
             self.rotation = gui.add_vector3("Rotation [deg]", tuple(d["rotation_deg"]), step=0.1)
             self.frame = gui.add_dropdown("Frame", ("tool", "base"), initial_value=d["frame"])
@@ -68,14 +71,14 @@ class Panel:
             self.show_gizmo = gui.add_checkbox("Drag target in 3D", False)
             self.ptwl_check = gui.add_html(_check_html("ptwl", "", []))
             self.send_ptwl = gui.add_button("Send cmd", color="blue", disabled=True)
-        with tabs.add_tab("RWE"):
+        with tabs.add_tab("RWE"), gui.add_form(None) as self.forms["rwe"]:
             self.rwe_axes = {a: gui.add_checkbox(a, a in defaults.rwe["axes"]) for a in AXES}
             self.rwe_duration = gui.add_number(
                 "RWE duration [s]", defaults.rwe["duration_s"], min=0.01, max=600.0
             )
             self.rwe_check = gui.add_html(_check_html("rwe", "", []))
             self.send_rwe = gui.add_button("Send RWE", color="blue", disabled=True)
-        with tabs.add_tab("Dither"):
+        with tabs.add_tab("Dither"), gui.add_form(None) as self.forms["dither"]:
             names = list(dither_presets)
             first = defaults.dither_preset if defaults.dither_preset in names else names[0]
             self.dither_preset = gui.add_dropdown("Dither preset", names, initial_value=first)

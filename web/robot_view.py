@@ -25,7 +25,7 @@ RED = (224, 49, 49)
 # inside or behind one stays in sight: the markers are opaque, drawn first, and show through.
 FIXTURE_OPACITY = 0.55
 STALE_GREY = (150, 150, 150)
-FORCE_COLOR = (230, 119, 0)
+FORCE_COLOR = (200, 40, 210)  # magenta: the arm is orange, so an orange arrow on it hid
 
 
 class RobotView:
