@@ -137,7 +137,49 @@ class GainsSpec(StrictModel):
         return Gains.of(self.stiffness, self.damping, self.frame)
 
 
-class PtwlParams(StrictModel):
+MAX_AGE_S = 86400.0
+EXPIRY_DOC = (
+    "a command that has not started by then ends `expired` without moving the robot (a command "
+    "held in a link blackout must not act on a world that has moved on)"
+)
+
+
+class Expiring(StrictModel):
+    """When a command stops being worth running: by the sender's age or by the robot's sim time.
+
+    Judged by the robot as the command is about to start (expiry_reason), so a command that waited
+    in the link or in the queue is judged alike. `max_age` compares the robot's wall clock with
+    the sender's `sent_at`: across machines their clocks must agree to well under `max_age`."""
+
+    sent_at: Annotated[float, _range(0.0, math.inf, "s", hi_open=True)] | None = Field(
+        None, description="[s] Unix time when the sender sent it, by the sender's clock"
+    )
+    max_age: Annotated[float, _range(0.0, MAX_AGE_S, "s", lo_open=True)] | None = Field(
+        None, description="[s] (0, 86400] after `sent_at`, which it needs; " + EXPIRY_DOC
+    )
+    valid_until_sim_time: Annotated[float, _range(0.0, math.inf, "s", hi_open=True)] | None = Field(
+        None, description="[s] the robot's sim time; " + EXPIRY_DOC
+    )
+
+    @model_validator(mode="after")
+    def _age_has_a_start(self) -> Self:
+        if self.max_age is not None and self.sent_at is None:
+            raise ValueError("max_age needs sent_at (the sender's Unix time when it sent the command)")
+        return self
+
+    def expiry_reason(self, now_unix_s: float, sim_time_s: float) -> str | None:
+        """Why this command must not start now; None while it is still valid."""
+        if self.max_age is not None and self.sent_at is not None:
+            age_s = now_unix_s - self.sent_at
+            if age_s > self.max_age:
+                return f"{age_s:.2f} s old at its start, over its max_age {self.max_age:g} s"
+        until_s = self.valid_until_sim_time
+        if until_s is not None and sim_time_s > until_s:
+            return f"sim time {sim_time_s:.3f} s at its start, past valid_until_sim_time {until_s:g} s"
+        return None
+
+
+class PtwlParams(Expiring):
     """Pose Target Wrench Limiting: move the attractor to port (+) displacement over `duration`."""
 
     type: Literal["ptwl"] = Field("ptwl", description="behavior: ptwl")
@@ -180,7 +222,7 @@ class PtwlParams(StrictModel):
         return chosen if self.gains_frame is None else chosen.in_frame(self.gains_frame)
 
 
-class RweParams(StrictModel):
+class RweParams(Expiring):
     """Reset Wrench Equilibrium on the selected axes; the others keep their stretch."""
 
     type: Literal["rwe"] = Field("rwe", description="behavior: rwe")
@@ -204,7 +246,7 @@ class RweParams(StrictModel):
         return [name in self.axes for name in AXIS_NAMES]
 
 
-class DitherParams(StrictModel):
+class DitherParams(Expiring):
     """Dither: wiggle the attractor while advancing (push) or retreating (pull) along an axis."""
 
     type: Literal["dither"] = Field("dither", description="behavior: dither")
@@ -291,7 +333,7 @@ def _resolve_gains(
     return None
 
 
-class GripperParams(StrictModel):
+class GripperParams(Expiring):
     """Close or open the gripper (paper 2.3.3-2.3.4): not a compliant behavior, but a step of the
     tool tasks; the attractor holds still while the jaws move."""
 
@@ -304,7 +346,7 @@ class GripperParams(StrictModel):
     )
 
 
-class StateMachineParams(StrictModel):
+class StateMachineParams(Expiring):
     """A task's onboard state machine (robot_sim/policies), run as one command."""
 
     type: Literal["state_machine"] = Field("state_machine", description="command: state_machine")

@@ -118,9 +118,10 @@ class RobotClient:
     # -------------------------------------------------------------------- writes
     def command(self, type: str, sender: str | None = None, **params: Any) -> CommandAccepted:
         """Queue a behavior: `type` is ptwl, rwe or dither; params as in the API (SI units);
-        `sender` is kept in the command's record (who sent it)."""
+        `sender` is kept in the command's record (who sent it). The command is stamped with
+        `sent_at` (now, Unix time) unless it has one, so a `max_age` is judged from its sending."""
         headers = {SENDER_HEADER: sender} if sender else None
-        body = {"type": type, **params}
+        body = {"type": type, "sent_at": time.time(), **params}
         return CommandAccepted(**self._request("POST", "/api/commands", json=body, headers=headers))
 
     def ptwl(self, **params: Any) -> CommandAccepted:

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from robot_sim.behaviors import BehaviorReport
-from robot_sim.behaviors.base import Pose
+from robot_sim.behaviors.base import ExitCondition, Pose
 from robot_sim.executor import CommandParams
 from robot_sim.policies.run import StepRecord
 from server.models import CommandStatus, MachineStepModel, PoseModel
@@ -146,22 +146,34 @@ class CommandBook:
             self._changed(record)
             return record
 
-    def start_next(self, start: Callable[[CommandRecord], Pose | None]) -> CommandRecord | None:
-        """Pop the oldest queued command, `start` it and mark it running (simulation thread).
+    def start_next(
+        self, start: Callable[[CommandRecord], Pose | None], sim_time_s: float
+    ) -> CommandRecord | None:
+        """Pop the oldest queued command, `start` it and mark it running (simulation thread);
+        one whose time has passed (params.py, Expiring) ends `expired` instead, unstarted.
 
         `start` returns the absolute goal the robot resolved (a PTWL's port-at-start (+)
         displacement), so the `running` event carries it: a console can draw the target the robot
         is really heading for, not one it guessed from a delayed port."""
         with self._lock:
-            if self.running is not None or not self._queue:
+            if self.running is not None:
                 return None
-            record = self._queue.popleft()
-            record.goal = start(record)
-            record.status = "running"
-            record.started_at = time.time()
-            self.running = record
-            self._changed(record)
-            return record
+            while self._queue:
+                record = self._queue.popleft()
+                reason = record.params.expiry_reason(time.time(), sim_time_s)
+                if reason is None:
+                    return self._start(record, start)
+                self._end_unstarted(record, ExitCondition.EXPIRED, reason)
+            return None
+
+    def _start(self, record: CommandRecord, start: Callable[[CommandRecord], Pose | None]) -> CommandRecord:
+        """(under the lock)"""
+        record.goal = start(record)
+        record.status = "running"
+        record.started_at = time.time()
+        self.running = record
+        self._changed(record)
+        return record
 
     def finish(self, report: BehaviorReport) -> CommandRecord | None:
         """The running command ended with `report` (simulation thread)."""
@@ -191,14 +203,17 @@ class CommandBook:
         with self._lock:
             dropped = list(self._queue)
             self._queue.clear()
-            now = time.time()
             for record in dropped:
-                record.status = "done"
-                record.exit = "aborted"
-                record.detail = detail
-                record.ended_at = now
-                self._changed(record)
+                self._end_unstarted(record, ExitCondition.ABORTED, detail)
             return dropped
+
+    def _end_unstarted(self, record: CommandRecord, exit: ExitCondition, detail: str) -> None:
+        """(under the lock) A queued command ends without having run."""
+        record.status = "done"
+        record.exit = exit.value
+        record.detail = detail
+        record.ended_at = time.time()
+        self._changed(record)
 
     def get(self, command_id: int) -> CommandStatus | None:
         with self._lock:

@@ -70,7 +70,8 @@ class CommandStatus(BaseModel):
     exit: str | None = Field(
         None,
         description="goal_reached | wrench_breach | timeout | aborted | fault; an RWE or the gripper: "
-        "completed | timeout | aborted | fault; a state machine: completed | failed | aborted | fault",
+        "completed | timeout | aborted | fault; a state machine: completed | failed | aborted | fault; "
+        "any command: expired (its max_age or valid_until_sim_time passed before it could start)",
     )
     params: dict[str, Any] = Field(description="the validated parameters, defaults filled in")
     queued_at: float = Field(description="[s] server wall clock, Unix time")

@@ -133,7 +133,7 @@ class SimRunner:
                 request.reply.set_exception(err)
 
     def _start_next(self) -> None:
-        self.book.start_next(lambda record: self._executor.start(record.params))
+        self.book.start_next(lambda record: self._executor.start(record.params), self.sim.time)
 
     def _advance(self) -> None:
         faults_before = self.sim.fault_count

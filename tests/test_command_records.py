@@ -99,7 +99,7 @@ def test_a_faulted_command_is_a_valid_record_for_every_reader(server: ServicePro
 def test_non_finite_report_fields_become_null_with_a_reason(value: float) -> None:
     book = CommandBook(4, 10)
     record = book.submit(RweParams(duration=0.01))
-    book.start_next(lambda record: None)
+    book.start_next(lambda record: None, 0.0)
     real = Simulation("free_space").run_behavior(behavior_for(RweParams(duration=0.01)))
     poisoned = dataclasses.replace(real, final_wrench=(0.0, value, 0.0, 0.0, 0.0, 0.0), peak_force=value)
     book.finish(poisoned)
@@ -113,7 +113,7 @@ def test_non_finite_report_fields_become_null_with_a_reason(value: float) -> Non
 def test_a_state_machine_step_that_faulted_is_valid_json_too() -> None:
     book = CommandBook(4, 10)
     record = book.submit(StateMachineParams(task="sleeve_on_peg"))
-    book.start_next(lambda record: None)
+    book.start_next(lambda record: None, 0.0)
     real = Simulation("free_space").run_behavior(behavior_for(RweParams(duration=0.01)))
     nan = dataclasses.replace(
         real, final_wrench=(math.nan,) * 6, peak_force=math.inf, exit=ExitCondition.FAULT

@@ -8,6 +8,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
+import httpx
 import numpy as np
 import pytest
 import viser
@@ -438,3 +439,37 @@ def test_a_replay_seek_makes_the_history_exactly_the_robots_records_then() -> No
     assert [v.id for v in history.live()] == [4]  # #9 has not happened yet at that time
     history.replace([])
     assert history.latest() is None
+
+
+def test_commands_carry_max_age_round_trip_plus_margin_and_an_expiry_is_said(
+    console: ConsoleApp, server: ServiceProcess, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 14: the console stamps every command with max_age = RTT + margin (the client stamps
+    sent_at); a command the robot expired is announced with the robot's reason, in its colour."""
+    wait_for_state(console)
+    said: list[tuple[str, str, str]] = []
+    monkeypatch.setattr(console, "_notify", lambda title, body, color: said.append((title, body, color)))
+    link_profile = console.client.base_url + "/_link/profile"
+    assert console.link_poller is not None
+    with viser_client(console) as desk, RobotClient(server.url) as robot:
+        console.seat.take(desk.client_id)
+        try:
+            httpx.put(link_profile, json={"uplink": 0.05, "downlink": 0.1}).raise_for_status()
+            console.link_poller.poll()
+            before = time.time()
+            console.send(desk, "rwe", desk.panel.rwe_params())
+            sent = robot.commands(limit=1)[-1]
+            assert sent.params["max_age"] == pytest.approx(0.15 + console.defaults.max_age_over_rtt_s)
+            assert before <= sent.params["sent_at"] <= time.time()
+            # One that is too old when its turn comes (here: any age over 1 us).
+            console.send(desk, "rwe", {**desk.panel.rwe_params(), "max_age": 1e-6})
+            expired = robot.wait(robot.commands(limit=1)[-1].id, timeout=5.0)
+        finally:
+            httpx.put(link_profile, json={"uplink": 0.0, "downlink": 0.0}).raise_for_status()
+            console.link_poller.poll()
+    assert expired.exit == "expired"
+    deadline = time.monotonic() + 5.0
+    while not any(title.endswith(": expired") for title, _, _ in said) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    title, body, color = next(note for note in said if note[0].endswith(": expired"))
+    assert title == f"RWE #{expired.id}: expired" and "over its max_age 1e-06 s" in body and color == "blue"

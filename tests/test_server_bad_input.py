@@ -51,6 +51,14 @@ BAD_COMMANDS = {
         422,
         ["force_threshold", "(0, 500] N", "got 1e+308"],
     ),
+    # Issue 14: commands that expire.
+    "max_age_without_sent_at": ('{"type": "ptwl", "max_age": 5}', 422, ["max_age needs sent_at"]),
+    "max_age_zero": ('{"type": "rwe", "sent_at": 1, "max_age": 0}', 422, ["max_age", "(0, 86400] s"]),
+    "valid_until_sim_time_negative": (
+        '{"type": "dither", "valid_until_sim_time": -1}',
+        422,
+        ["valid_until_sim_time", "[0, inf) s"],
+    ),
     "duration_true_is_not_1_s": ('{"type": "ptwl", "duration": true}', 422, ["duration", "valid number"]),
     "duration_string_is_not_a_number": (
         '{"type": "rwe", "duration": "5"}',

@@ -215,7 +215,9 @@ class ConsoleApp:
         view = self.history.sent(behavior, target, sender)
         if behavior == "ptwl":
             self._commanded = view  # shown at once, as predicted: intent does not wait for the link
-        self._submit(view, behavior, params, sender)
+        rtt_s = self.link_poller.rtt_s if self.link_poller is not None else 0.0
+        max_age_s = rtt_s + self.defaults.max_age_over_rtt_s  # the client stamps sent_at
+        self._submit(view, behavior, {"max_age": max_age_s, **params}, sender)
 
     def _submit(self, view: CommandView, behavior: str, params: dict[str, Any], sender: str) -> None:
         self._after_change(view)
@@ -331,10 +333,13 @@ class ConsoleApp:
         self._show_command(view)
 
     def _announce_end(self, view: CommandView) -> None:
-        peak = f"peak {view.peak_force or 0.0:.1f} N, {view.peak_torque or 0.0:.2f} N m"
-        self._notify(
-            f"{view.behavior.upper()} {view.label}: {view.exit}", peak, _notification_color(view.exit)
+        said = (  # an expired command never ran: why it did not is what matters
+            view.detail
+            if view.exit == "expired"
+            else f"peak {view.peak_force or 0.0:.1f} N, {view.peak_torque or 0.0:.2f} N m"
         )
+        title = f"{view.behavior.upper()} {view.label}: {view.exit}"
+        self._notify(title, said, _notification_color(view.exit))
 
     def _check_instance(self, instance: str) -> None:
         """The robot restarted if its instance changed: say so, and show its cut-off commands lost."""
@@ -477,5 +482,6 @@ def _notification_color(exit_condition: str | None) -> NotificationColor:
         "wrench_breach": "orange",
         "timeout": "yellow",
         "aborted": "gray",
+        "expired": "blue",  # not a fault of the robot: the link held it too long
     }
     return colors.get(exit_condition or "", "red")

@@ -15,6 +15,7 @@ class ConsoleDefaults:
     stiffness_preset: str
     wrench_arrow_m_per_n: float
     plot_s: float
+    max_age_over_rtt_s: float
 
 
 def load_defaults() -> ConsoleDefaults:
@@ -26,4 +27,5 @@ def load_defaults() -> ConsoleDefaults:
         stiffness_preset=raw["stiffness"]["preset"],
         wrench_arrow_m_per_n=float(raw["view"]["wrench_arrow_m_per_n"]),
         plot_s=float(raw["view"]["telemetry_plot_s"]),
+        max_age_over_rtt_s=float(raw["commands"]["max_age_over_rtt_s"]),
     )

@@ -21,6 +21,7 @@ EXIT_COLORS = {
     "wrench_breach": "#e8590c",
     "timeout": "#f08c00",
     "aborted": "#868e96",
+    "expired": "#ae3ec9",
     "fault": "#e03131",
     "refused": "#e03131",
     "lost": "#e03131",

@@ -24,6 +24,7 @@ class ExitCondition(StrEnum):
     FAILED = "failed"  # a state machine that gave up (its report's detail says why)
     ABORTED = "aborted"
     FAULT = "fault"
+    EXPIRED = "expired"  # never started: its max_age or valid_until_sim_time had passed (params.py)
 
 
 @dataclass(frozen=True)
