@@ -137,6 +137,49 @@ class GainsSpec(StrictModel):
         return Gains.of(self.stiffness, self.damping, self.frame)
 
 
+class MonitorSpec(StrictModel):
+    """The force task monitor (the teleoperation paper's 2.4.1, with 2.5.2's estimator): while
+    the port slides in contact, the force along the surface is modelled as mu |F_n| + c and
+    (mu, c) are tracked by recursive least squares, one forgetting factor each; once learned, a
+    measured force outside the model's band for `persist` ends the behavior `anomaly` (a jam, a
+    change of surface), and a measurement outside the band is never learned from."""
+
+    model: Literal["friction"] = Field(
+        "friction", description="friction: tangential force = mu |normal force| + c while sliding"
+    )
+    normal: Annotated[Vec3, _vector(math.inf, "", direction=True)] = Field(
+        default_factory=lambda: [0.0, 0.0, 1.0], description="the surface normal, base axes (normalized)"
+    )
+    forgetting: Annotated[list[Annotated[float, _range(0.5, 1.0, "")]], Field(min_length=2, max_length=2)] = (
+        Field(
+            default_factory=lambda: [0.999, 0.995],
+            description="[mu, c] per 10 ms sample, [0.5, 1]: mu remembers ~10 s, c ~2 s (factors far "
+            "apart, e.g. 0.98 for c, let c absorb a changing normal force and mu drift)",
+        )
+    )
+    band_fraction: Annotated[float, _range(0.0, 5.0, "", lo_open=True)] = Field(
+        0.3, description="anomaly when |measured - predicted| > this x |predicted| (the paper's 30 %)"
+    )
+    band_min: Annotated[float, _range(0.0, limits.MAX_FORCE_THRESHOLD_N, "N", lo_open=True)] = Field(
+        1.0, description="[N] and > this (a floor, so a light touch is not judged by its noise)"
+    )
+    min_normal_force: Annotated[float, _range(0.0, limits.MAX_FORCE_THRESHOLD_N, "N")] = Field(
+        1.0, description="[N] in contact above this; judged and learned only in contact"
+    )
+    min_speed: Annotated[float, _range(0.0, 1.0, "m/s", lo_open=True)] = Field(
+        0.002, description="[m/s] sliding above this along the surface; judged and learned only then"
+    )
+    warmup: Annotated[float, _range(0.0, 60.0, "s")] = Field(
+        0.3, description="[s] of sliding in contact spent learning before judging"
+    )
+    persist: Annotated[float, _range(0.0, 5.0, "s")] = Field(
+        0.03, description="[s] outside the band this long is an anomaly (one noisy sample is not)"
+    )
+
+
+MONITOR_DOC = "force task monitor (opt-in): ends the behavior `anomaly` when contact forces leave its model"
+
+
 MAX_AGE_S = 86400.0
 EXPIRY_DOC = (
     "a command that has not started by then ends `expired` without moving the robot (a command "
@@ -205,6 +248,7 @@ class PtwlParams(Expiring):
     gains_frame: GainsFrame | None = Field(
         None, description=GAINS_FRAME_DOC + "; default: the preset's, else base (explicit), else unchanged"
     )
+    monitor: MonitorSpec | None = Field(None, description=MONITOR_DOC)
 
     @model_validator(mode="after")
     def _consistent(self) -> Self:
@@ -274,6 +318,7 @@ class DitherParams(Expiring):
     torque_threshold: TorqueThreshold = Field(3.0, description="[N m] <= 50")
     watchdog: Duration | None = Field(None, description="[s] >= duration; default duration + 5")
     on_breach: OnBreach = Field("limit", description=ON_BREACH_DOC)
+    monitor: MonitorSpec | None = Field(None, description=MONITOR_DOC)
 
     @model_validator(mode="before")
     @classmethod

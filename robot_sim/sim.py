@@ -29,6 +29,7 @@ from robot_sim.payload import Payload
 from robot_sim.presets import default_presets
 from robot_sim.scenes import Scene, TaskProgress, apply_seed, get_scene
 from robot_sim.scenes.grasp import actuate
+from robot_sim.task_monitor import FrictionMonitor
 
 SETTLE_S = 0.3  # [s] physics in position hold at every (re)load, before compliance starts
 
@@ -153,6 +154,7 @@ class Simulation:
         self._peak_torque = 0.0
         self._limited_s: dict[Limit, float] = {}  # [s] per limit, while the behavior ran
         self._behavior_detail = ""  # what the running behavior's report will say (a grasp)
+        self.monitor: FrictionMonitor | None = None  # the last behavior's task monitor, if it had one
 
     @property
     def time(self) -> float:
@@ -176,8 +178,11 @@ class Simulation:
                     self._peak_torque = ctl.torque_norm
                 if ctl.limited is not None:
                     self._limited_s[ctl.limited] = self._limited_s.get(ctl.limited, 0.0) + self.control_dt
-                exit_condition = behavior.update(ctl, now)
-                if exit_condition is not None:
+                exit_condition = behavior.update(ctl, now)  # its own exits first: a breach before all
+                monitor = self.monitor
+                if exit_condition is None and monitor is not None and monitor.update(ctl):
+                    report = self._finish(ExitCondition.ANOMALY, monitor.detail())
+                elif exit_condition is not None:
                     report = self._finish(exit_condition)
             ctl.command()
             mujoco.mj_step(self.model, data, self.n_substeps)
@@ -218,6 +223,8 @@ class Simulation:
         self._peak_torque = 0.0
         self._limited_s = {}
         self._behavior_detail = ""
+        spec = behavior.monitor_spec()
+        self.monitor = FrictionMonitor(spec, self.control_dt) if spec is not None else None
         behavior.start(self.controller, self.time)
         if isinstance(behavior, Gripper):
             self._behavior_detail = self._actuate_gripper(behavior.params.action)

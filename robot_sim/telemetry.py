@@ -26,6 +26,7 @@ def state_fields(sim: Simulation, moving: list[int]) -> dict[str, Any]:
         "bodies": body_poses(sim.model, sim.data, moving),
         "task": task_fields(sim.task()),
         "gains": gains_fields(sim.controller.gains),
+        "monitor": sim.monitor.fields() if sim.monitor is not None else None,
     }
 
 

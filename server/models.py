@@ -71,7 +71,8 @@ class CommandStatus(BaseModel):
         None,
         description="goal_reached | wrench_breach | timeout | aborted | fault; an RWE or the gripper: "
         "completed | timeout | aborted | fault; a state machine: completed | failed | aborted | fault; "
-        "any command: expired (its max_age or valid_until_sim_time passed before it could start)",
+        "a behavior with `monitor`: anomaly; any command: expired (its max_age or "
+        "valid_until_sim_time passed before it could start)",
     )
     params: dict[str, Any] = Field(description="the validated parameters, defaults filled in")
     queued_at: float = Field(description="[s] server wall clock, Unix time")
@@ -137,6 +138,22 @@ class ActiveGainsModel(BaseModel):
     frame: Literal["base", "tool"] = Field(description="the axes of the diagonal")
 
 
+class MonitorModel(BaseModel):
+    """The force task monitor of the running (or last) behavior that asked for one."""
+
+    model: Literal["friction"] = Field(description="friction: tangential = mu |normal| + c while sliding")
+    mu: float = Field(description="estimated friction coefficient")
+    c: float = Field(description="[N] estimated constant tangential force")
+    normal_force: float | None = Field(description="[N] |F_n| of the last 10 ms sample")
+    tangential_force: float | None = Field(description="[N] |F_t| of the last sample")
+    predicted: float = Field(description="[N] the model's F_t for it, made before seeing it")
+    residual: float | None = Field(description="[N] measured - predicted")
+    band: float = Field(description="[N] beyond this residual the sample is off the model")
+    judging: bool = Field(description="sliding in contact past the warm-up: samples are judged")
+    anomaly: bool = Field(description="the behavior ended `anomaly`")
+    samples_learned: int = Field(description="samples the estimator has learned from")
+
+
 class RobotStateModel(BaseModel):
     sim_time: float = Field(description="[s] simulation time since the scene was loaded")
     port: PoseModel = Field(description="port of interaction (tool frame), base frame")
@@ -159,6 +176,9 @@ class RobotStateModel(BaseModel):
     )
     task: TaskProgressModel | None = Field(
         None, description="the scene's success predicate now (as GET /api/task, without `scene`)"
+    )
+    monitor: MonitorModel | None = Field(
+        None, description="the force task monitor, while a behavior with `monitor` runs and after it"
     )
 
 

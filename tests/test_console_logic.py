@@ -473,3 +473,15 @@ def test_commands_carry_max_age_round_trip_plus_margin_and_an_expiry_is_said(
         time.sleep(0.05)
     title, body, color = next(note for note in said if note[0].endswith(": expired"))
     assert title == f"RWE #{expired.id}: expired" and "over its max_age 1e-06 s" in body and color == "blue"
+
+
+def test_the_monitor_box_asks_for_the_force_task_monitor(console: ConsoleApp) -> None:
+    with viser_client(console) as desk:
+        panel = desk.panel
+        assert "monitor" not in panel.ptwl_params() and "monitor" not in panel.dither_params()
+        panel.monitor.value = True
+        panel.dither_monitor.value = True
+        for behavior in ("ptwl", "dither"):
+            params = panel.params(behavior)
+            assert params["monitor"] == {} and not console.check(behavior, params).errors
+            assert console.check(behavior, params).params.monitor.band_fraction == 0.3  # type: ignore[union-attr]

@@ -59,6 +59,17 @@ BAD_COMMANDS = {
         422,
         ["valid_until_sim_time", "[0, inf) s"],
     ),
+    "monitor_forgetting_below_half": (
+        '{"type": "ptwl", "monitor": {"forgetting": [0.2, 0.99]}}',
+        422,
+        ["monitor.forgetting[0]", "[0.5, 1]"],
+    ),
+    "monitor_unknown_setting": (
+        '{"type": "dither", "monitor": {"gain": 1}}',
+        422,
+        ["monitor.gain", "Extra inputs"],
+    ),
+    "monitor_on_rwe": ('{"type": "rwe", "monitor": {}}', 422, ["monitor", "Extra inputs"]),
     "duration_true_is_not_1_s": ('{"type": "ptwl", "duration": true}', 422, ["duration", "valid number"]),
     "duration_string_is_not_a_number": (
         '{"type": "rwe", "duration": "5"}',

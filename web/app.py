@@ -274,6 +274,14 @@ class ConsoleApp:
         for desk in self.desks():
             desk.panel.show_scene_task(geometry.scene)
 
+    def _reload_for_new_scene(self) -> None:
+        """(its own thread) A scene loaded by someone else: draw it; a close meanwhile ends it."""
+        try:
+            self._reload_geometry()
+        except (RobotError, httpx.HTTPError) as err:
+            if not self._closed:
+                self._notify("The new scene could not be drawn", f"{type(err).__name__}: {err}", "red")
+
     # ------------------------------------------------------------ telemetry
     def _on_state(self, state: dict[str, Any], arrived: float) -> None:
         assert self.board is not None and self.view is not None
@@ -288,7 +296,7 @@ class ConsoleApp:
             self._reconcile_soon()  # messages were lost: an end event may be among them
         if state["scene"] != self.scene_name and self.handshake is not None and self.handshake.met:
             self.scene_name = state["scene"]
-            threading.Thread(target=self._reload_geometry, daemon=True).start()
+            threading.Thread(target=self._reload_for_new_scene, daemon=True).start()
         if previous is None or state["gains"] != previous["gains"]:
             self.board.show_gains(state["gains"])
         with self.server.atomic():
@@ -333,9 +341,9 @@ class ConsoleApp:
         self._show_command(view)
 
     def _announce_end(self, view: CommandView) -> None:
-        said = (  # an expired command never ran: why it did not is what matters
+        said = (  # why an expired command never ran, what the monitor saw: that is what matters
             view.detail
-            if view.exit == "expired"
+            if view.exit in ("expired", "anomaly")
             else f"peak {view.peak_force or 0.0:.1f} N, {view.peak_torque or 0.0:.2f} N m"
         )
         title = f"{view.behavior.upper()} {view.label}: {view.exit}"
@@ -483,5 +491,6 @@ def _notification_color(exit_condition: str | None) -> NotificationColor:
         "timeout": "yellow",
         "aborted": "gray",
         "expired": "blue",  # not a fault of the robot: the link held it too long
+        "anomaly": "orange",  # the force task monitor stopped it: look before going on
     }
     return colors.get(exit_condition or "", "red")

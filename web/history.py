@@ -22,6 +22,7 @@ EXIT_COLORS = {
     "timeout": "#f08c00",
     "aborted": "#868e96",
     "expired": "#ae3ec9",
+    "anomaly": "#e8590c",
     "fault": "#e03131",
     "refused": "#e03131",
     "lost": "#e03131",

@@ -16,7 +16,11 @@ from web.defaults import ConsoleDefaults
 
 AXES = ("x", "y", "z", "rx", "ry", "rz")
 AMPLITUDE_LABELS = {"torsional": "Amplitude [deg]", "translational": "Amplitude (radius) [mm]"}
-FORM_ORDER = 10.0  # each browser's own form sits above the shared board (order 100+)
+FORM_ORDER = 10.0
+MONITOR_HINT = (
+    "learn the friction while sliding in contact (mu |F_n| + c) and end the command 'anomaly' "
+    "on a jam or a change of surface; the plate's normal is base z"
+)  # each browser's own form sits above the shared board (order 100+)
 
 
 class Panel:
@@ -68,6 +72,7 @@ class Panel:
             self.watchdog = gui.add_number(
                 "Watchdog [s]", d["duration_s"] + 5.0, min=0.01, max=600.0, step=0.5, disabled=True
             )
+            self.monitor = gui.add_checkbox("Force task monitor", False, hint=MONITOR_HINT)
             self.show_gizmo = gui.add_checkbox("Drag target in 3D", False)
             self.ptwl_check = gui.add_html(_check_html("ptwl", "", []))
             self.send_ptwl = gui.add_button("Send cmd", color="blue", disabled=True)
@@ -93,6 +98,7 @@ class Panel:
             self.dither_torque_threshold = gui.add_number(
                 "Dither torque limit [N m]", 3.0, min=0.01, step=0.05
             )
+            self.dither_monitor = gui.add_checkbox("Dither force task monitor", False, hint=MONITOR_HINT)
             self.dither_check = gui.add_html(_check_html("dither", "", []))
             self.send_dither = gui.add_button("Send dither", color="blue", disabled=True)
             self.dither_preset.on_update(lambda _: self.fill_dither_fields())
@@ -157,6 +163,7 @@ class Panel:
                 self.watchdog_auto,
                 self.watchdog,
                 self.stiffness,
+                self.monitor,
             ],
             "rwe": [*self.rwe_axes.values(), self.rwe_duration],
             "dither": [
@@ -170,6 +177,7 @@ class Panel:
                 self.dither_duration,
                 self.dither_force_threshold,
                 self.dither_torque_threshold,
+                self.dither_monitor,
             ],
             "state_machine": [self.task],
             "gripper": [self.gripper_action],
@@ -251,6 +259,7 @@ class Panel:
             "orientation_tolerance": math.radians(float(self.orientation_tolerance.value)),
             **({} if self.watchdog_auto.value else {"watchdog": float(self.watchdog.value)}),
             "preset": str(self.stiffness.value),
+            **({"monitor": {}} if self.monitor.value else {}),  # the robot's default settings
         }
 
     def set_ptwl_displacement(self, translation_m: np.ndarray, rotation_rad: np.ndarray) -> None:
@@ -301,6 +310,7 @@ class Panel:
             "duration": float(self.dither_duration.value),
             "force_threshold": float(self.dither_force_threshold.value),
             "torque_threshold": float(self.dither_torque_threshold.value),
+            **({"monitor": {}} if self.dither_monitor.value else {}),
         }
 
 

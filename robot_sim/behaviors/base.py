@@ -13,7 +13,7 @@ from enum import StrEnum
 import numpy as np
 
 from robot_sim.controller import AdmittanceController
-from robot_sim.params import OnBreach
+from robot_sim.params import MonitorSpec, OnBreach
 
 
 class ExitCondition(StrEnum):
@@ -24,6 +24,7 @@ class ExitCondition(StrEnum):
     FAILED = "failed"  # a state machine that gave up (its report's detail says why)
     ABORTED = "aborted"
     FAULT = "fault"
+    ANOMALY = "anomaly"  # the force task monitor found the contact forces off its model
     EXPIRED = "expired"  # never started: its max_age or valid_until_sim_time had passed (params.py)
 
 
@@ -94,6 +95,10 @@ class Behavior(ABC):
     @abstractmethod
     def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:
         """Move the attractor for time t [s]; return an exit condition to end."""
+
+    def monitor_spec(self) -> MonitorSpec | None:
+        """The force task monitor it asked for (task_monitor.py), if any."""
+        return None
 
     def goal_pose(self) -> Pose | None:
         """(after start) The absolute pose it drives the port to, if it has one: what an

@@ -23,7 +23,7 @@ import numpy as np
 
 from robot_sim.behaviors.base import Behavior, ExitCondition, end_breach, wrench_breached
 from robot_sim.controller import AdmittanceController
-from robot_sim.params import DitherParams
+from robot_sim.params import DitherParams, MonitorSpec
 from robot_sim.pose_math import rotate_world, rotation_matrix
 
 TRAVEL_TOLERANCE_M = 0.001
@@ -52,6 +52,9 @@ class Dither(Behavior):
         self._wiggle = np.zeros(3)
         self._q_tmp = np.zeros(4)
         self._t0 = 0.0
+
+    def monitor_spec(self) -> MonitorSpec | None:
+        return self.params.monitor
 
     def start(self, ctl: AdmittanceController, t: float) -> None:
         self._t0 = t

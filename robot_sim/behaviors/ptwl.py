@@ -17,7 +17,7 @@ import numpy as np
 
 from robot_sim.behaviors.base import Behavior, ExitCondition, Pose, end_breach, wrench_breached
 from robot_sim.controller import AdmittanceController
-from robot_sim.params import PtwlParams
+from robot_sim.params import MonitorSpec, PtwlParams
 from robot_sim.pose_math import angle_between, rotate_world, rotation_matrix, rotvec_from_to
 
 
@@ -52,6 +52,9 @@ class Ptwl(Behavior):
         self._t0 = 0.0
         self._rotates = False
         self._arrived = False
+
+    def monitor_spec(self) -> MonitorSpec | None:
+        return self.params.monitor
 
     def start(self, ctl: AdmittanceController, t: float) -> None:
         p = self.params

@@ -10,6 +10,7 @@ from robot_sim.scenes import (
     berthing,
     door,
     free_space,
+    friction_step,
     lid,
     plug,
     quick_connect,
@@ -37,6 +38,7 @@ SCENES: dict[str, Scene] = {
         berthing,
         tool_retrieval,
         tool_stowage,
+        friction_step,
     )
 }
 

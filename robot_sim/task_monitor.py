@@ -1,0 +1,134 @@
+"""The force task monitor onboard (the teleoperation paper's 2.4.1 and 2.5.2), opt-in per
+behavior (`monitor` in PTWL and Dither; MonitorSpec in params.py says what each setting does).
+
+The friction model: while the port slides on a surface, the force along it is
+F_t = mu |F_n| + c (Coulomb friction plus a constant, the paper's cutting force). The monitor
+samples the measured force every 10 ms (the mean over the window, which also filters it),
+learns (mu, c) by recursive least squares with a forgetting factor each (rls.py), and once it
+has slid for `warmup` judges each sample against the prediction made before seeing it: outside
+max(band_fraction |F_t_hat|, band_min) for `persist` is an anomaly. It neither learns nor judges
+out of contact or while not sliding (the model holds only while sliding), and never learns
+from a sample outside the band, so a jam cannot teach it that jamming is normal.
+"""
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from robot_sim.controller import AdmittanceController
+from robot_sim.params import MonitorSpec
+from robot_sim.rls import VectorForgettingRls
+
+WINDOW_S = 0.01  # [s] one sample per window: the mean force and the port's travel over it
+VARIANCE0 = 100.0  # initial covariance: (mu, c) start at 0, known to nobody
+MAX_VARIANCE = 100.0
+
+
+@dataclass
+class Sample:
+    normal_n: float  # [N] |F_n|
+    tangential_n: float  # [N] |F_t|
+    speed_m_s: float  # [m/s] port speed along the surface
+
+
+class FrictionMonitor:
+    def __init__(self, spec: MonitorSpec, control_dt_s: float) -> None:
+        self.spec = spec
+        self._normal = np.asarray(spec.normal, dtype=float)
+        self._ticks_per_window = max(1, round(WINDOW_S / control_dt_s))
+        self._window_s = self._ticks_per_window * control_dt_s
+        self.rls = VectorForgettingRls(np.zeros(2), VARIANCE0, np.asarray(spec.forgetting), MAX_VARIANCE)
+        self._force_sum = np.zeros(3)
+        self._ticks = 0
+        self._p_start: np.ndarray | None = None
+        self.learned_s = 0.0  # [s] of sliding in contact learned from
+        self.outside_s = 0.0  # [s] outside the band, in a row
+        self.last: Sample | None = None
+        self.predicted_n = 0.0
+        self.band_n = 0.0
+        self.judging = False
+        self.anomaly = False
+
+    @property
+    def mu(self) -> float:
+        return float(self.rls.theta[0])
+
+    @property
+    def c_n(self) -> float:
+        return float(self.rls.theta[1])
+
+    def update(self, ctl: AdmittanceController) -> bool:
+        """(every control tick) True when this tick's sample is an anomaly."""
+        if self._p_start is None:
+            self._p_start = ctl.p_world_port.copy()
+        self._force_sum += ctl.w_world_env_on_port[0:3]
+        self._ticks += 1
+        if self._ticks < self._ticks_per_window:
+            return False
+        force = self._force_sum / self._ticks
+        travel = ctl.p_world_port - self._p_start
+        self._force_sum[:] = 0.0
+        self._ticks = 0
+        self._p_start = ctl.p_world_port.copy()
+        normal_n = float(force @ self._normal)
+        tangential = force - normal_n * self._normal
+        along = travel - float(travel @ self._normal) * self._normal
+        sample = Sample(
+            abs(normal_n), float(np.linalg.norm(tangential)), float(np.linalg.norm(along)) / self._window_s
+        )
+        self.last = sample
+        return self._judge(sample)
+
+    def _judge(self, sample: Sample) -> bool:
+        spec = self.spec
+        if sample.normal_n < spec.min_normal_force:  # out of contact: no model to hold
+            self.outside_s = 0.0
+            self.judging = False
+            return False
+        sliding = sample.speed_m_s >= spec.min_speed
+        phi = np.array([sample.normal_n, 1.0])
+        self.predicted_n = self.rls.predict(phi)
+        self.band_n = max(spec.band_fraction * abs(self.predicted_n), spec.band_min)
+        self.judging = self.learned_s >= spec.warmup
+        residual_n = sample.tangential_n - self.predicted_n
+        # Stuck, friction may hold anything up to mu |F_n|: only a force above the band (a jam)
+        # is off the model. Sliding, it is off on either side (the paper's "higher or lower").
+        off = residual_n > self.band_n or (sliding and residual_n < -self.band_n)
+        if self.judging and off:
+            self.outside_s += self._window_s
+            self.anomaly = self.outside_s >= spec.persist - 1e-9
+            return self.anomaly
+        self.outside_s = 0.0
+        if sliding:  # learn from sliding samples (once judging, only those on the model: see above)
+            self.rls.update(phi, sample.tangential_n)
+            self.learned_s += self._window_s
+        return False
+
+    def detail(self) -> str:
+        """What the anomaly was, for the behavior's report."""
+        s = self.last
+        measured = s.tangential_n if s is not None else float("nan")
+        normal = s.normal_n if s is not None else float("nan")
+        return (
+            f"force task monitor: tangential force {measured:.2f} N at normal {normal:.2f} N, "
+            f"predicted {self.predicted_n:.2f} +- {self.band_n:.2f} N (mu {self.mu:.3f}, c {self.c_n:.2f} N) "
+            f"for {self.outside_s * 1000:.0f} ms"
+        )
+
+    def fields(self) -> dict[str, Any]:
+        """For telemetry: the estimates and the last sample's residual."""
+        s = self.last
+        return {
+            "model": self.spec.model,
+            "mu": self.mu,
+            "c": self.c_n,
+            "normal_force": s.normal_n if s is not None else None,
+            "tangential_force": s.tangential_n if s is not None else None,
+            "predicted": self.predicted_n,
+            "residual": (s.tangential_n - self.predicted_n) if s is not None else None,
+            "band": self.band_n,
+            "judging": self.judging,
+            "anomaly": self.anomaly,
+            "samples_learned": self.rls.updates,
+        }

@@ -1,0 +1,138 @@
+"""The force task monitor (issue 14; the teleoperation paper's 2.4.1 and 2.5.2): RLS with a
+forgetting factor per parameter, and slides on the friction_step plate: the friction learned,
+a step in friction and a jam flagged `anomaly`, a plain slide left alone."""
+
+import numpy as np
+import pytest
+
+from robot_sim.behaviors import ExitCondition, behavior_for
+from robot_sim.params import MonitorSpec, PtwlParams
+from robot_sim.rls import VectorForgettingRls
+from robot_sim.scenes.friction_step import MU_SMOOTH, SEAM_Y_M
+from robot_sim.sim import Simulation
+from robot_sim.task_monitor import FrictionMonitor, Sample
+from robot_sim.telemetry import state_fields
+from server.models import MonitorModel
+
+
+def test_rls_learns_a_line_and_its_fast_parameter_follows_a_step() -> None:
+    rng = np.random.default_rng(0)
+    rls = VectorForgettingRls(np.zeros(2), 100.0, np.array([0.999, 0.95]), 100.0)
+    for _ in range(400):  # F_t = 0.4 F_n + 2 N, F_n 2 to 20 N, 0.05 N noise
+        normal = rng.uniform(2.0, 20.0)
+        rls.update(np.array([normal, 1.0]), 0.4 * normal + 2.0 + rng.normal(0.0, 0.05))
+    assert rls.theta == pytest.approx([0.4, 2.0], rel=0.01)
+    for i in range(60):  # the constant steps to 5 N: the fast-forgetting parameter takes it
+        normal = rng.uniform(2.0, 20.0)
+        rls.update(np.array([normal, 1.0]), 0.4 * normal + 5.0)
+        if i == 59:  # mu, slow to forget, moved a little meanwhile
+            assert rls.theta[1] == pytest.approx(5.0, rel=0.02) and rls.theta[0] == pytest.approx(
+                0.4, rel=0.05
+            )
+
+
+def test_rls_covariance_stays_bounded_without_excitation() -> None:
+    rls = VectorForgettingRls(np.zeros(2), 1.0, np.array([0.99, 0.99]), 50.0)
+    for _ in range(5000):  # the same regressor for ever: forgetting alone would inflate P
+        rls.update(np.array([10.0, 1.0]), 3.0)
+    assert np.all(np.diag(rls.P) <= 50.0 + 1e-9) and np.all(np.linalg.eigvalsh(rls.P) >= -1e-9)
+    assert rls.predict(np.array([10.0, 1.0])) == pytest.approx(3.0, abs=1e-6)
+
+
+def pressed(depth_m: float) -> Simulation:
+    """friction_step with the probe tip pressed `depth_m` into the plate (medium stiffness:
+    2000 N/m, so ~2 N per mm)."""
+    sim = Simulation("friction_step")
+    tip_on_plate_z = 0.220 + 0.008  # the plate's top face + the ball's radius
+    down = tip_on_plate_z - depth_m - float(sim.controller.p_world_port[2])
+    press = PtwlParams(translation=[0, 0, down], frame="base", duration=1.0, watchdog=2.0, preset="medium")
+    sim.run_behavior(behavior_for(press))
+    return sim
+
+
+def slide(
+    sim: Simulation, dy_m: float, dz_m: float, monitor: bool = True
+) -> tuple[list[tuple[float, float, float]], object]:
+    """A 3 s PTWL slide along y (pressing dz deeper); per tick (t, port y, monitor mu) and the report."""
+    params = PtwlParams(
+        translation=[0, dy_m, dz_m],
+        frame="base",
+        duration=3.0,
+        force_threshold=60.0,
+        monitor={} if monitor else None,
+    )
+    sim.start(behavior_for(params))
+    trace = []
+    while True:
+        report = sim.step()
+        mu = sim.monitor.mu if sim.monitor is not None else float("nan")
+        trace.append((sim.time, float(sim.controller.p_world_port[1]), mu))
+        if report is not None:
+            return trace, report
+
+
+def test_a_step_in_friction_is_learned_then_flagged_within_0_2_s() -> None:
+    """Slide from the smooth part (mu 0.3) onto the rough one (0.6), the normal force ramping
+    4 -> ~20 N so mu and c are both seen: mu is learned within 5 % before the seam and the step
+    ends the slide `anomaly` within 0.2 s of the tip crossing it."""
+    sim = pressed(0.002)
+    trace, report = slide(sim, 0.045, -0.010)
+    assert report.exit == ExitCondition.ANOMALY, report
+    crossed = next(t for t, y, _ in trace if y >= SEAM_Y_M) if trace[-1][1] >= SEAM_Y_M else trace[-1][0]
+    assert abs(report.ended_at - crossed) <= 0.2
+    mu_before = [mu for t, y, mu in trace if y < SEAM_Y_M - 0.002]
+    assert mu_before[-1] == pytest.approx(MU_SMOOTH, rel=0.05)
+    assert "force task monitor" in report.detail and "predicted" in report.detail
+    assert sim.monitor is not None and sim.monitor.anomaly and sim.monitor.fields()["anomaly"] is True
+
+
+def test_a_jam_on_the_ridge_is_flagged_before_the_wrench_limit() -> None:
+    sim = pressed(0.003)
+    trace, report = slide(sim, -0.09, -0.002)
+    assert report.exit == ExitCondition.ANOMALY, report
+    assert report.peak_force < 40.0  # long before the 60 N breach a jam without the monitor ends in
+    assert trace[-1][1] < -0.045  # at the ridge (centre -60 mm, 3 mm half-width, 8 mm ball)
+
+
+def test_the_jam_without_the_monitor_runs_into_the_wrench_limit() -> None:
+    """The monitor is opt-in: the same slide without it pushes on until the breach."""
+    sim = pressed(0.003)
+    _, report = slide(sim, -0.09, -0.002, monitor=False)
+    assert report.exit == ExitCondition.WRENCH_BREACH and sim.monitor is None
+
+
+def test_a_plain_slide_and_its_stop_are_not_anomalies() -> None:
+    sim = pressed(0.003)
+    trace, report = slide(sim, -0.04, -0.002)  # stops short of the ridge, stays pressed
+    assert report.exit != ExitCondition.ANOMALY, report.detail
+    assert sim.monitor is not None and sim.monitor.fields()["samples_learned"] > 100
+    assert trace[-1][2] == pytest.approx(MU_SMOOTH, rel=0.05)
+
+
+def judge(monitor: FrictionMonitor, normal_n: float, tangential_n: float, speed_m_s: float, n: int) -> bool:
+    return any([monitor._judge(Sample(normal_n, tangential_n, speed_m_s)) for _ in range(n)])
+
+
+def test_too_little_force_is_an_anomaly_only_while_sliding() -> None:
+    """Sliding, a force well under mu |F_n| is off the model (the paper's "higher or lower": e.g.
+    the tool lost its bite); stuck, static friction may hold anything below it, so only a force
+    above the band is."""
+    monitor = FrictionMonitor(MonitorSpec(), control_dt_s=0.001)
+    for normal_n in np.linspace(4.0, 16.0, 60):  # learn mu 0.3 while sliding at 10 mm/s
+        assert not judge(monitor, normal_n, 0.3 * normal_n, 0.01, 1)
+    assert monitor.judging and monitor.mu == pytest.approx(0.3, rel=0.05)
+    assert not judge(monitor, 10.0, 0.2, 0.0, 10)  # stuck, hardly any tangential force: fine
+    assert not judge(monitor, 10.0, 3.0, 0.01, 10)  # sliding on the model
+    assert judge(monitor, 10.0, 0.2, 0.01, 3)  # sliding with almost no friction: 3 samples, 30 ms
+    assert judge(FrictionMonitor(MonitorSpec(), 0.001), 10.0, 9.0, 0.0, 100) is False  # not learned yet
+
+
+def test_telemetry_carries_the_monitors_estimates_and_residual() -> None:
+    sim = pressed(0.003)
+    _, report = slide(sim, -0.09, -0.002)
+    state = state_fields(sim, [])
+    monitor = MonitorModel(**state["monitor"])  # the API's schema for it
+    assert monitor.anomaly and report.exit == ExitCondition.ANOMALY
+    assert monitor.mu == pytest.approx(MU_SMOOTH, rel=0.05)
+    assert monitor.residual is not None and monitor.residual > monitor.band > 0.0
+    assert state_fields(Simulation("friction_step"), [])["monitor"] is None  # none asked for
