@@ -160,6 +160,30 @@ class Simulation:
     def time(self) -> float:
         return float(self.data.time)
 
+    def sync_to(
+        self,
+        sim_time_s: float,
+        joint_positions: "tuple[float, ...] | list[float]",
+        attractor: Pose,
+        gains: Gains,
+    ) -> None:
+        """Put this simulation where another's telemetry says it was: a ground twin's start
+        (web/twin.py). Telemetry has no joint velocities, so the arm starts at rest; in free
+        space the difference dies out with the admittance's time constant. Any behavior ends
+        (nothing is reported: the twin re-issues what should run)."""
+        self.behavior = None
+        data, layout, ctl = self.data, self.layout, self.controller
+        data.qpos[layout.qpos_adr] = joint_positions
+        data.qvel[:] = 0.0
+        data.act[layout.act_adr] = joint_positions
+        data.time = sim_time_s
+        mujoco.mj_forward(self.model, data)
+        ctl.set_gains(gains)
+        ctl.enable()
+        ctl.p_world_attractor[:] = attractor.position
+        ctl.q_world_attractor[:] = attractor.quaternion
+        ctl.measure_stretch()
+
     # -------------------------------------------------------------------------- steps
     def step(self) -> BehaviorReport | None:
         """Advance one control period; returns the report if a behavior ended in it."""

@@ -1,0 +1,231 @@
+"""The ground twin behind the predictive display (issue 14; the teleoperation paper's commanded
+and predicted displays): the console's own copy of the robot model, started from the latest
+delayed telemetry and fed every command sent since, simulated forward to "now".
+
+"Now" is the robot at the moment a command sent now would reach it: robot sim time
+t(W) = t_state + (W - sent_at_state) (the robot runs paced to its wall clock), taken at
+W = now + uplink. So the twin leads the delayed picture by a round trip, and a command starts
+moving it as soon as it is sent; telemetry shows the same instant a round trip later, which is
+when the twin's prediction for it is judged (`errors`).
+
+Every `RESYNC_S` the twin restarts from the latest state (Simulation.sync_to), re-issues the
+robot's running PTWL (its remaining part, toward the goal the robot resolved) and this console's
+commands the robot has not started, each no earlier than it can arrive, one after another; in
+between it runs on in real time. It knows the nominal scene only (no seeded misalignment), RWE,
+Dither and state machines the robot is running are not replayed (the twin holds), and other
+senders' commands are seen only once they run: the prediction error readout says how far to
+trust it.
+"""
+
+import bisect
+import threading
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from robot_sim.behaviors import BehaviorParams, behavior_for
+from robot_sim.behaviors.base import Pose
+from robot_sim.gains import Gains
+from robot_sim.geometry import body_poses, moving_bodies
+from robot_sim.params import PtwlParams
+from robot_sim.pose_math import rotvec_from_to
+from robot_sim.sim import Simulation
+
+RESYNC_S = 0.5  # [s] wall time between restarts from the latest telemetry
+RECORD_S = 0.01  # [s] sim time between recorded predictions
+ERROR_WINDOW_S = 5.0  # [s] the readout's max is over this much wall time
+MATCH_S = 0.015  # [s] a prediction judges a state within this much sim time of it
+
+
+@dataclass
+class Sent:
+    """A command this console sent: `params` as validated, `sent_wall` its Unix send time, `pending`
+    a view of whether the robot has yet to start it (the console's command history knows)."""
+
+    params: BehaviorParams
+    sent_wall: float
+    pending: Callable[[], bool]
+
+
+@dataclass(frozen=True)
+class Prediction:
+    sim_time: float
+    port: tuple[np.ndarray, np.ndarray]  # position [m], wxyz
+    bodies: dict[str, list[float]]
+
+
+def _pose(message: dict[str, Any]) -> Pose:
+    p, q = message["position"], message["quaternion"]
+    return Pose((p[0], p[1], p[2]), (q[0], q[1], q[2], q[3]))
+
+
+def remaining_ptwl(message: dict[str, Any], port: Pose, elapsed_s: float) -> PtwlParams | None:
+    """The rest of the robot's running PTWL as a PTWL from `port`: toward the goal the robot
+    resolved, over the time its attractor still had to travel."""
+    goal = message.get("goal")
+    if message.get("type") != "ptwl" or goal is None:
+        return None
+    params = PtwlParams.model_validate(message["params"])
+    assert params.watchdog is not None
+    left_s = max(params.duration - elapsed_s, 1e-3)
+    p_goal, q_goal = np.asarray(goal["position"]), np.asarray(goal["quaternion"])
+    translation = p_goal - np.asarray(port.position)
+    rotation = rotvec_from_to(np.asarray(port.quaternion), q_goal)
+    return params.model_copy(
+        update={
+            "translation": translation.tolist(),
+            "rotation": rotation.tolist(),
+            "frame": "base",
+            "duration": left_s,
+            "watchdog": max(params.watchdog - elapsed_s, left_s),
+        }
+    )
+
+
+class GroundTwin:
+    def __init__(self, uplink_s: Callable[[], float]) -> None:
+        self._uplink_s = uplink_s
+        self._lock = threading.Lock()
+        self._state: dict[str, Any] | None = None  # the latest telemetry state
+        self._running: dict[str, Any] | None = None  # the robot's running command's event
+        self._sent: list[Sent] = []
+        self._new_sends: list[Sent] = []
+        self.sim: Simulation | None = None
+        self._moving: list[int] = []
+        self._queue: deque[tuple[BehaviorParams, float]] = deque()  # (params, not before [sim s])
+        self._resynced_wall = -np.inf
+        self._resync_due = False
+        self._times: list[float] = []  # recorded predictions, sim time ascending
+        self._ports: list[np.ndarray] = []
+        self.latest: Prediction | None = None
+        self.errors: deque[tuple[float, float]] = deque()  # (arrival wall, |error| [m])
+
+    # ----------------------------------------------------------- inputs (any thread)
+    def on_state(self, state: dict[str, Any], arrived_wall: float) -> float | None:
+        """A telemetry state arrived: the twin's next start, and a judge of what it predicted.
+        Returns |predicted - reported| port position [m], if it had predicted that instant."""
+        with self._lock:
+            self._state = state
+            error = self._error_for(state)
+            if error is not None:
+                self.errors.append((arrived_wall, error))
+            while self.errors and self.errors[0][0] < arrived_wall - ERROR_WINDOW_S:
+                self.errors.popleft()
+            return error
+
+    def on_command(self, message: dict[str, Any]) -> None:
+        """A command event from the robot: which command runs (replayed at each restart)."""
+        with self._lock:
+            if message.get("status") == "running":
+                self._running = message
+            elif self._running is not None and message.get("id") == self._running.get("id"):
+                self._running = None
+
+    def on_sent(self, sent: Sent) -> None:
+        """This console sent a command: the twin starts it now (it is at the robot's "now" + uplink)."""
+        with self._lock:
+            self._sent.append(sent)
+            self._new_sends.append(sent)
+
+    def on_stop(self) -> None:
+        with self._lock:
+            self._sent.clear()
+            self._new_sends.clear()
+            self._resync_due = True
+
+    # ------------------------------------------------------------- the twin's thread
+    def advance(self, now_wall: float) -> Prediction | None:
+        """Run the twin to the robot's sim time at now + uplink; restart it from the latest state
+        every RESYNC_S. Returns the prediction for now (None before any telemetry)."""
+        with self._lock:
+            state, running = self._state, self._running
+            self._sent = [s for s in self._sent if s.pending()]
+            sent, new = list(self._sent), self._new_sends
+            self._new_sends = []
+            resync = self._resync_due or now_wall - self._resynced_wall >= RESYNC_S
+            self._resync_due = False
+        if state is None:
+            return None
+        uplink_s = self._uplink_s()
+        target_s = float(state["sim_time"]) + (now_wall + uplink_s - float(state["sent_at"]))
+        if self.sim is None or self.sim.scene.name != state["scene"]:
+            self.sim = Simulation(state["scene"])
+            self._moving = moving_bodies(self.sim.model)
+            resync = True
+        if resync:
+            self._restart(state, running, sent, uplink_s)
+            self._resynced_wall = now_wall
+        else:
+            for s in new:
+                self._queue.append((s.params, self.sim.time))
+        self._run_to(target_s, record=True)
+        ctl = self.sim.controller
+        port = (ctl.p_world_port.copy(), ctl.q_world_port.copy())
+        self.latest = Prediction(self.sim.time, port, body_poses(self.sim.model, self.sim.data, self._moving))
+        return self.latest
+
+    def _restart(
+        self, state: dict[str, Any], running: dict[str, Any] | None, sent: list[Sent], uplink_s: float
+    ) -> None:
+        sim = self.sim
+        assert sim is not None
+        t_state, sent_at = float(state["sim_time"]), float(state["sent_at"])
+        gains = state["gains"]
+        sim.sync_to(
+            t_state,
+            state["joint_positions"],
+            _pose(state["attractor"]),
+            Gains.of(gains["stiffness"], gains["damping"], gains["frame"]),
+        )
+        self._queue.clear()
+        if running is not None and running.get("started_at") is not None:
+            elapsed_s = sent_at - float(running["started_at"])  # both the robot's wall clock
+            port = sim.state().port  # after sync_to: the kinematics of the reported joints
+            rest = remaining_ptwl(running, port, elapsed_s)
+            if rest is not None:
+                self._queue.append((rest, t_state))
+        for s in sent:  # each no earlier than it can reach the robot
+            self._queue.append((s.params, t_state + (s.sent_wall + uplink_s - sent_at)))
+
+    def _run_to(self, target_s: float, record: bool) -> None:
+        sim = self.sim
+        assert sim is not None
+        while sim.time < target_s:
+            if sim.behavior is None and self._queue and sim.time >= self._queue[0][1]:
+                sim.start(behavior_for(self._queue.popleft()[0]))
+            sim.step()
+            if record and (not self._times or sim.time >= self._times[-1] + RECORD_S):
+                self._record(sim.time, sim.controller.p_world_port.copy())
+
+    def _record(self, sim_time: float, port: np.ndarray) -> None:
+        with self._lock:
+            if self._times and sim_time < self._times[-1]:  # a new scene: time starts again
+                self._times.clear()
+                self._ports.clear()
+            self._times.append(sim_time)
+            self._ports.append(port)
+            if len(self._times) > 6000:  # a minute of predictions is plenty to judge by
+                del self._times[:1000], self._ports[:1000]
+
+    def _error_for(self, state: dict[str, Any]) -> float | None:
+        """(under the lock) |predicted - reported| port position for the state's sim time."""
+        t = float(state["sim_time"])
+        i = bisect.bisect_left(self._times, t)
+        best = min(
+            (j for j in (i - 1, i) if 0 <= j < len(self._times)),
+            key=lambda j: abs(self._times[j] - t),
+            default=None,
+        )
+        if best is None or abs(self._times[best] - t) > MATCH_S:
+            return None
+        return float(np.linalg.norm(self._ports[best] - np.asarray(state["port"]["position"])))
+
+    def error_summary(self) -> tuple[float, float] | None:
+        """(last, max over the last ERROR_WINDOW_S) |prediction error| [m]; None before any."""
+        with self._lock:
+            if not self.errors:
+                return None
+            return self.errors[-1][1], max(e for _, e in self.errors)
