@@ -2,6 +2,7 @@
 
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -241,7 +242,7 @@ def test_close_stops_every_thread(server: ServiceProcess) -> None:
         app = ConsoleApp(link.url, port=free_port())
         app.connect(timeout=30.0)
         wait_for_state(app)
-        assert set(app.threads_running()) == {"status bar", "telemetry", "link poller"}
+        assert set(app.threads_running()) == {"status bar", "telemetry", "link poller", "twin"}
         started = time.monotonic()
         app.close()
         assert app.threads_running() == []
@@ -485,3 +486,41 @@ def test_the_monitor_box_asks_for_the_force_task_monitor(console: ConsoleApp) ->
             params = panel.params(behavior)
             assert params["monitor"] == {} and not console.check(behavior, params).errors
             assert console.check(behavior, params).params.monitor.band_fraction == 0.3  # type: ignore[union-attr]
+
+
+def test_the_ghost_moves_at_once_on_send_and_its_error_is_judged(server: ServiceProcess) -> None:
+    """Behind a 1 s + 1 s link: the twin's port starts moving within 0.1 s of Send (the delayed
+    picture moves 2 s later), and once telemetry catches up its prediction error is under 2 mm."""
+    with running_proxy(server.url) as link:
+        httpx.put(link.url + "/_link/profile", json={"uplink": 1.0, "downlink": 1.0}).raise_for_status()
+        app = ConsoleApp(link.url, port=free_port())
+        app.connect(timeout=30.0)
+        try:
+            wait_for_state(app)
+            assert app.link_poller is not None
+            app.link_poller.poll()
+            deadline = time.monotonic() + 10
+            while app._prediction is None and time.monotonic() < deadline:
+                time.sleep(0.02)
+            assert app._prediction is not None
+            with viser_client(app) as desk:
+                app.seat.take(desk.client_id)
+                desk.panel.frame.value = "base"
+                desk.panel.translation.value = (0.0, 40.0, 0.0)
+                before = app._prediction.port[0].copy()
+                sender = threading.Thread(target=app.send, args=(desk, "ptwl", desk.panel.ptwl_params()))
+                sent = time.monotonic()
+                sender.start()
+                while (
+                    float(np.linalg.norm(app._prediction.port[0] - before)) < 1e-4
+                    and time.monotonic() < sent + 2
+                ):
+                    time.sleep(0.005)
+                moved_after_s = time.monotonic() - sent
+                sender.join()
+                time.sleep(4.5)  # the move (2 s) and a round trip for telemetry to show it
+            summary = app.twin.error_summary() if app.twin is not None else None
+        finally:
+            app.close()
+    assert moved_after_s < 0.1
+    assert summary is not None and summary[1] < 0.002

@@ -22,6 +22,14 @@ def test_free_space_prediction_within_2_mm_at_3_s_round_trip() -> None:
     assert result.delayed_max_mm > 40.0  # what it saves the operator from
 
 
+def test_a_running_event_before_its_202_does_not_replay_the_command_twice() -> None:
+    """Across the link a command's `running` event can come before its 202 (here 0.6 s before):
+    meanwhile the console still calls it pending, and the twin must know it by its sent_at stamp
+    or it replays it a second time after the robot's own run of it."""
+    result = run_trial(Simulation("free_space"), 3.0, free_space_moves(), 12.0, ack_lag_s=0.6)
+    assert result.max_mm < 2.0
+
+
 def test_a_send_moves_the_prediction_within_0_1_s() -> None:
     """Sent between two restarts from telemetry: the twin starts it at its next 20 ms tick (the
     port is seen moving 69 ms after the send), not at the next restart up to 0.5 s later."""
@@ -49,7 +57,7 @@ def test_the_rest_of_a_running_ptwl_ends_at_the_goal_the_robot_resolved() -> Non
     sim.run(0.8)
     replay = Simulation("free_space")
     replay.sync_to(sim.time, list(sim.state().joint_positions), sim.state().attractor, sim.controller.gains)
-    message = {"type": "ptwl", "params": params.model_dump(), "goal": goal.as_dict()}
+    message = {"type": "command", "behavior": "ptwl", "params": params.model_dump(), "goal": goal.as_dict()}
     rest = remaining_ptwl(message, replay.state().port, 0.8)
     assert rest is not None and rest.duration == pytest.approx(1.2) and rest.watchdog == pytest.approx(6.2)
     replay_behavior = behavior_for(rest)

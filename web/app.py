@@ -18,6 +18,7 @@ import httpx
 import numpy as np
 import viser
 
+from robot_sim.behaviors import BehaviorParams
 from robot_sim.gains import Gains
 from server.client import RobotClient, RobotError
 from server.models import GeometryModel
@@ -27,6 +28,7 @@ from web.defaults import load_defaults
 from web.desk import Desk
 from web.feed import TelemetryFeed
 from web.front_door import FrontDoor, admit_only_through
+from web.ghost import GhostView
 from web.handshake import Catalog, Handshake
 from web.history import CommandHistory, CommandView
 from web.link_poller import LinkPoller
@@ -35,6 +37,8 @@ from web.robot_view import RobotView
 from web.seat import ControlSeat, operator_name
 from web.status_bar import BarInputs, Level, StatusBar
 from web.targets import Pose
+from web.twin import GroundTwin, Prediction, Sent
+from web.twin_worker import TwinWorker
 
 NotificationColor = Literal["gray", "red", "green", "orange", "yellow", "blue"]
 HTTP_TIMEOUT_S = 120.0  # requests cross the link twice; long delays are the point
@@ -88,6 +92,10 @@ class ConsoleApp:
         self.link_poller: LinkPoller | None = None
         self.playback: Playback | None = None  # when the robot is a recording
         self.handshake: Handshake | None = None
+        self.twin: GroundTwin | None = None  # the predictive display (not for a recording)
+        self.ghost: GhostView | None = None
+        self.twin_worker: TwinWorker | None = None
+        self._prediction: Prediction | None = None
 
     @property
     def url(self) -> str:
@@ -126,6 +134,11 @@ class ConsoleApp:
         self.handshake.start()
         self.feed = TelemetryFeed(self.client, self._on_state, self._on_command, self._on_link)
         self.link_poller = LinkPoller(self.robot_url, self.token, self._on_link_profile)
+        if self.defaults.twin and replay is None:
+            self.twin = GroundTwin(self._uplink_s)
+            self.ghost = GhostView(self.server)
+            self.twin_worker = TwinWorker(self.twin, self.ghost, self.server, self._on_prediction)
+            self.twin_worker.start()
         self.feed.start()
         self.link_poller.start()
         self.bar.start()
@@ -216,8 +229,13 @@ class ConsoleApp:
         if behavior == "ptwl":
             self._commanded = view  # shown at once, as predicted: intent does not wait for the link
         rtt_s = self.link_poller.rtt_s if self.link_poller is not None else 0.0
-        max_age_s = rtt_s + self.defaults.max_age_over_rtt_s  # the client stamps sent_at
-        self._submit(view, behavior, {"max_age": max_age_s, **params}, sender)
+        max_age_s = rtt_s + self.defaults.max_age_over_rtt_s
+        stamped = {"max_age": max_age_s, "sent_at": time.time(), **params}
+        checked = self.check(behavior, stamped).params
+        if self.twin is not None and isinstance(checked, BehaviorParams):  # the ghost moves at once
+            sent_at = stamped["sent_at"]
+            self.twin.on_sent(Sent(checked, sent_at, lambda: view.phase in ("sent", "queued")))
+        self._submit(view, behavior, stamped, sender)
 
     def _submit(self, view: CommandView, behavior: str, params: dict[str, Any], sender: str) -> None:
         self._after_change(view)
@@ -242,6 +260,8 @@ class ConsoleApp:
         who = operator_name(client.client_id) if client is not None else "console"
         sent = time.strftime("%H:%M:%S")
         self.bar.show_stop("pending", f"STOP sent by {who} at {sent}; waiting for the robot")
+        if self.twin is not None:
+            self.twin.on_stop()
         try:
             result = self.client.stop()
         except (RobotError, httpx.HTTPError) as err:
@@ -268,6 +288,8 @@ class ConsoleApp:
         geometry = geometry or self.client.geometry()
         with self.server.atomic():
             self.view.load(geometry)
+            if self.ghost is not None:
+                self.ghost.load(geometry)
         self.scene_name = geometry.scene
         if self.board is not None:
             self.board.show_scene(geometry.scene)
@@ -291,6 +313,8 @@ class ConsoleApp:
             previous = self._state
             self._state = state
             self._arrived = arrived
+        if self.twin is not None:
+            self.twin.on_state(state, arrived)
         self._check_instance(state["instance"])
         if previous is not None and state["seq"] > previous["seq"] + 1:
             self._reconcile_soon()  # messages were lost: an end event may be among them
@@ -314,6 +338,8 @@ class ConsoleApp:
             return
         self._check_instance(message["instance"])
         self._plot_event(message)
+        if self.twin is not None:
+            self.twin.on_command(message)
         view, ended = self.history.event(message)
         if view is None:
             return
@@ -424,7 +450,25 @@ class ConsoleApp:
         if len(running) > 1:
             command += f" · {len(running) - 1} more queued"
         rtt = self.link_poller.rtt_s if self.link_poller is not None else 0.0
-        return BarInputs(state, arrived, self._link_up, self._link_text, rtt, command, self._restart_note)
+        prediction = self._prediction
+        return BarInputs(
+            state,
+            arrived,
+            self._link_up,
+            self._link_text,
+            rtt,
+            command,
+            self._restart_note,
+            tuple(prediction.port[0].tolist()) if prediction is not None else None,
+            self.twin.error_summary() if self.twin is not None else None,
+        )
+
+    def _uplink_s(self) -> float:
+        profile = self.link_poller.profile if self.link_poller is not None else None
+        return float(profile["uplink"]) if profile is not None else 0.0
+
+    def _on_prediction(self, prediction: Prediction) -> None:
+        self._prediction = prediction
 
     def _on_level(self, level: Level) -> None:
         if self.view is not None:
@@ -467,12 +511,13 @@ class ConsoleApp:
             ("status bar", self.bar),
             ("telemetry", self.feed),
             ("link poller", self.link_poller),
+            ("twin", self.twin_worker),
         ]
         return [name for name, part in parts if part is not None and part.running]
 
     def close(self) -> None:
         self._closed = True
-        for part in (self.handshake, self.bar, self.feed, self.link_poller, self.playback):
+        for part in (self.handshake, self.bar, self.feed, self.link_poller, self.playback, self.twin_worker):
             if part is not None:
                 part.close()
         # viser first, while the front door still carries its close handshake to the browsers:

@@ -16,6 +16,7 @@ class ConsoleDefaults:
     wrench_arrow_m_per_n: float
     plot_s: float
     max_age_over_rtt_s: float
+    twin: bool
 
 
 def load_defaults() -> ConsoleDefaults:
@@ -28,4 +29,5 @@ def load_defaults() -> ConsoleDefaults:
         wrench_arrow_m_per_n=float(raw["view"]["wrench_arrow_m_per_n"]),
         plot_s=float(raw["view"]["telemetry_plot_s"]),
         max_age_over_rtt_s=float(raw["commands"]["max_age_over_rtt_s"]),
+        twin=bool(raw["twin"]["enabled"]),
     )

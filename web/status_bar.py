@@ -20,7 +20,7 @@ from web.worker import Worker
 TICK_S = 0.08  # the bar's refresh period: 12.5 updates/s whether or not telemetry arrives
 LATE_AFTER_RTT_S = 1.0  # amber: state older than the round trip plus this
 STALE_AFTER_RTT_S = 5.0  # red: older than the round trip plus this, or the link is down
-BAR_WIDTH_PX, BAR_HEIGHT_PX = 500, 215
+BAR_WIDTH_PX, BAR_HEIGHT_PX = 500, 235
 PAGE_DEAD_AFTER_S = 2.5  # no bar update for this long: the console or the page's socket is gone
 # A page cannot tick when the console that feeds it is dead, so the page itself keeps time: every
 # update re-creates this banner, restarting its hidden CSS countdown; if updates stop, it appears.
@@ -55,6 +55,8 @@ class BarInputs:
     rtt_s: float  # the link's configured round trip (0 without a link)
     command: str  # the running or latest command, one line
     note: str  # e.g. "robot restarted at 12:00:01"
+    predicted_port: tuple[float, float, float] | None = None  # [m] the ground twin's, if it runs
+    prediction_error: tuple[float, float] | None = None  # [m] its last and 5 s max error
 
 
 @dataclass(frozen=True)
@@ -126,7 +128,25 @@ def _render(inputs: BarInputs, age: float | None, level: Level) -> str:
         f'<div id="ptwl-telemetry" {attrs}>{robot}{stale}</div>'
         f'<div style="color:{color}">{rtt}{html.escape(inputs.note)}</div>'
         f'<div id="ptwl-running">{html.escape(inputs.command)}</div>'
+        f"{_prediction_html(inputs.predicted_port, inputs.prediction_error)}"
         f"{_task_html(state.get('task') if state else None)}</div>"
+    )
+
+
+def _prediction_html(port: tuple[float, float, float] | None, error: tuple[float, float] | None) -> str:
+    """The ground twin's line: where it puts the port now, and how far off it has been."""
+    if port is None:
+        return '<div id="ptwl-prediction" data-x="" data-error-mm="" data-max-mm=""></div>'
+    x, y, z = (1000.0 * v for v in port)
+    if error is None:
+        judged, data = "not judged yet", 'data-error-mm="" data-max-mm=""'
+    else:
+        last, worst = (1000.0 * e for e in error)
+        judged = f"off {last:.1f} mm (max {worst:.1f} over 5 s)"
+        data = f'data-error-mm="{last:.3f}" data-max-mm="{worst:.3f}"'
+    return (
+        f'<div id="ptwl-prediction" data-x="{x:.2f}" data-y="{y:.2f}" data-z="{z:.2f}" {data} '
+        f'style="color:#0c8599">twin: port ({x:.1f}, {y:.1f}, {z:.1f}) mm · {judged}</div>'
     )
 
 

@@ -42,8 +42,9 @@ MATCH_S = 0.015  # [s] a prediction judges a state within this much sim time of 
 
 @dataclass
 class Sent:
-    """A command this console sent: `params` as validated, `sent_wall` its Unix send time, `pending`
-    a view of whether the robot has yet to start it (the console's command history knows)."""
+    """A command this console sent: `params` as validated, `sent_wall` its Unix send time (also
+    its `sent_at` stamp), `pending` a view of whether the robot has yet to start it (the console's
+    command history knows, once the robot's 202 has named it)."""
 
     params: BehaviorParams
     sent_wall: float
@@ -66,7 +67,7 @@ def remaining_ptwl(message: dict[str, Any], port: Pose, elapsed_s: float) -> Ptw
     """The rest of the robot's running PTWL as a PTWL from `port`: toward the goal the robot
     resolved, over the time its attractor still had to travel."""
     goal = message.get("goal")
-    if message.get("type") != "ptwl" or goal is None:
+    if message.get("behavior") != "ptwl" or goal is None:  # a command event names it `behavior`
         return None
     params = PtwlParams.model_validate(message["params"])
     assert params.watchdog is not None
@@ -92,6 +93,9 @@ class GroundTwin:
         self._state: dict[str, Any] | None = None  # the latest telemetry state
         self._running: dict[str, Any] | None = None  # the robot's running command's event
         self._sent: list[Sent] = []
+        # The sent_at stamps of commands seen running or done: a `running` event can beat its
+        # command's 202 across the link, and a command must not be replayed twice meanwhile.
+        self._started_stamps: deque[float] = deque(maxlen=256)
         self._new_sends: list[Sent] = []
         self.sim: Simulation | None = None
         self._moving: list[int] = []
@@ -119,6 +123,9 @@ class GroundTwin:
     def on_command(self, message: dict[str, Any]) -> None:
         """A command event from the robot: which command runs (replayed at each restart)."""
         with self._lock:
+            stamp = (message.get("params") or {}).get("sent_at")
+            if stamp is not None and message.get("status") in ("running", "done"):
+                self._started_stamps.append(float(stamp))
             if message.get("status") == "running":
                 self._running = message
             elif self._running is not None and message.get("id") == self._running.get("id"):
@@ -142,7 +149,8 @@ class GroundTwin:
         every RESYNC_S. Returns the prediction for now (None before any telemetry)."""
         with self._lock:
             state, running = self._state, self._running
-            self._sent = [s for s in self._sent if s.pending()]
+            started = set(self._started_stamps)
+            self._sent = [s for s in self._sent if s.pending() and s.sent_wall not in started]
             sent, new = list(self._sent), self._new_sends
             self._new_sends = []
             resync = self._resync_due or now_wall - self._resynced_wall >= RESYNC_S

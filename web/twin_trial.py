@@ -18,6 +18,7 @@ from web.twin import GroundTwin, Sent
 
 STATE_S = 0.02  # telemetry at 50 Hz
 TWIN_TICK_S = 0.02  # the console's twin thread runs every 20 ms
+ACK_LAG_S = 0.1  # a command's 202 reaches the console this long after its `running` event
 WALL0 = 1_800_000_000.0  # the virtual Unix time at sim time 0
 
 
@@ -49,6 +50,7 @@ def run_trial(
     sends: list[tuple[float, BehaviorParams]],
     seconds: float,
     twin_scene_check: Callable[[GroundTwin], None] | None = None,
+    ack_lag_s: float = ACK_LAG_S,
 ) -> TrialResult:
     """`sends`: (virtual seconds from the start, params), sent from the console; the link splits
     `rtt_s` evenly. Returns every prediction error the console would have shown."""
@@ -67,13 +69,17 @@ def run_trial(
     history: list[tuple[float, np.ndarray]] = []  # the robot's (sim time, port) as sent
     t0 = robot.time
     wall = WALL0 + t0
+    clock = [wall]  # the virtual wall clock, as `pending` views read it
     while robot.time - t0 < seconds:
-        wall = WALL0 + robot.time
+        wall = clock[0] = WALL0 + robot.time
         while pending_sends and pending_sends[0][0] <= robot.time - t0:
-            _, params = pending_sends.pop(0)
+            _, unstamped = pending_sends.pop(0)
+            params = unstamped.model_copy(update={"sent_at": wall})  # as the console stamps it
             cid = next(ids)
             to_robot.append((wall + up_s, cid, params))
-            twin.on_sent(Sent(params, wall, _not_started(started, cid)))
+            # The console's history calls a command pending until it has both the robot's 202
+            # and its `running` event; across the link the event usually comes first.
+            twin.on_sent(Sent(params, wall, _pending(clock, started, cid, wall + rtt_s + ack_lag_s)))
             before = twin.latest.port[0].copy() if twin.latest is not None else None
             if before is not None:
                 moved_after.append((wall, before))
@@ -86,8 +92,9 @@ def run_trial(
             running = cid
             goal = robot.behavior.goal_pose() if robot.behavior is not None else None
             message: dict[str, Any] = {
+                "type": "command",  # as the robot's telemetry socket sends a command event
                 "id": cid,
-                "type": params.type,
+                "behavior": params.type,
                 "status": "running",
                 "params": params.model_dump(),
                 "started_at": wall,
@@ -142,8 +149,8 @@ def run_trial(
     return result
 
 
-def _not_started(started: set[int], cid: int) -> Callable[[], bool]:
-    return lambda: cid not in started
+def _pending(clock: list[float], started: set[int], cid: int, acked_wall: float) -> Callable[[], bool]:
+    return lambda: cid not in started or clock[0] < acked_wall
 
 
 def _port_at(history: list[tuple[float, np.ndarray]], sim_time: float) -> np.ndarray:
