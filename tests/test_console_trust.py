@@ -445,3 +445,39 @@ def test_markers_show_through_fixtures_and_the_force_arrow_outside_the_tool(brow
     page.wait_for_timeout(500)
     assert pixels_of_hue(view_hsv(page), *MAGENTA_HUE, min_saturation=0.15) > 10
     page.close()
+
+
+CYAN_HUE = (180.0, 196.0)  # the twin's ghost (21, 170, 191); the sky-blue tool tip is ~205
+
+
+def prediction(page, key: str) -> str:  # type: ignore[no-untyped-def]
+    return page.locator("#ptwl-prediction").get_attribute(f"data-{key}") or ""
+
+
+def test_the_ghost_moves_on_send_and_says_how_far_off_it_was(browser, stack, calm) -> None:  # type: ignore[no-untyped-def]
+    """Issue 14's predictive display behind a 1 s + 1 s link: on Send the cyan ghost (the ground
+    twin) moves at once, while the delayed robot has not; when telemetry catches up the twin's
+    line says its predictions were within 2 mm."""
+    _, link, console = stack
+    set_link(link, uplink=1.0, downlink=1.0)
+    page = open_console(browser, console.url)
+    page.wait_for_function("document.querySelector('#ptwl-prediction')?.dataset.x !== ''", timeout=15e3)
+    above_the_bar = view_hsv(page)[:480]  # the status bar floats bottom right; its twin line is cyan too
+    assert pixels_of_hue(above_the_bar, *CYAN_HUE, min_saturation=0.35) > 200  # the ghost is drawn
+    inputs_for(page, "Frame").first.click()
+    page.get_by_role("option", name="base").click()
+    set_fields(page, "Translation [mm]", 0, 40, 0)
+    y0_mm = port_mm(page)[1]
+    send(page, "Send cmd")
+    page.wait_for_function(
+        f"Number(document.querySelector('#ptwl-prediction').dataset.y) > {y0_mm + 5}", timeout=1500
+    )
+    assert abs(port_mm(page)[1] - y0_mm) < 0.5  # the delayed picture has not moved yet
+    page.wait_for_function(
+        f"(() => {{ const m = document.querySelector('#ptwl-telemetry').innerText"
+        f".match(/port \\((-?[\\d.]+), (-?[\\d.]+)/); return m && Number(m[2]) > {y0_mm + 38}; }})()",
+        timeout=15e3,
+    )
+    page.wait_for_timeout(500)
+    assert prediction(page, "max-mm") != "" and float(prediction(page, "max-mm")) < 2.0
+    page.close()

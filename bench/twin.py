@@ -1,0 +1,77 @@
+"""Benchmark: the predictive display's prediction error, at 1, 3 and 5 s round trips, in free
+space and in contact (issue 14's closing figures), on web/twin_trial.py's virtual clock.
+
+For each case: the twin's port error against the telemetry that later shows the same instant
+(max and p95 over every state judged, mm), and as the baseline the same states against the
+delayed picture an operator has without a twin (the port a round trip earlier), measured in the
+same run; `ratio` is twin max over delayed max. Also the twin's cost: wall seconds of one
+restart-and-run over a round trip (what each 0.5 s resync costs the console).
+
+    python -m bench.twin
+"""
+
+import json
+import time
+
+from robot_sim.behaviors import BehaviorParams
+from robot_sim.params import PtwlParams
+from robot_sim.sim import Simulation
+from web.twin import GroundTwin
+from web.twin_trial import contact_moves, free_space_moves, run_trial
+
+RTTS_S = (1.0, 3.0, 5.0)
+INSERTION: list[tuple[float, BehaviorParams]] = [
+    (1.0, PtwlParams(translation=[0, 0, 0.05], frame="tool", duration=3.0, force_threshold=40.0))
+]
+CASES: dict[str, tuple[str, int | None, list[tuple[float, BehaviorParams]], float]] = {
+    "free_space": ("free_space", None, free_space_moves(), 12.0),
+    "contact_press_and_slide": ("surface", 3, contact_moves(), 10.0),
+    "contact_insertion_misaligned_peg": ("sleeve_on_peg", 5, INSERTION, 8.0),
+}
+
+
+def restart_cost_s(rtt_s: float) -> float:
+    """Wall time for one twin restart that simulates a round trip ahead."""
+    sim = Simulation("free_space")
+    state = {
+        "sim_time": 0.0,
+        "sent_at": 0.0,
+        "scene": "free_space",
+        "port": sim.state().port.as_dict(),
+        "attractor": sim.state().attractor.as_dict(),
+        "joint_positions": list(sim.state().joint_positions),
+        "gains": {
+            "stiffness": sim.controller.gains.stiffness.tolist(),
+            "damping": sim.controller.gains.damping.tolist(),
+            "frame": sim.controller.gains.frame,
+        },
+    }
+    twin = GroundTwin(uplink_s=lambda: rtt_s / 2.0)
+    twin.on_state(state, 0.0)
+    twin.advance(0.0)  # builds the twin's model
+    t0 = time.perf_counter()
+    twin.on_stop()  # forces a restart
+    twin.advance(rtt_s / 2.0)
+    return time.perf_counter() - t0
+
+
+def main() -> None:
+    out: dict[str, object] = {}
+    for name, (scene, seed, moves, seconds) in CASES.items():
+        rows = {}
+        for rtt in RTTS_S:
+            result = run_trial(Simulation(scene, seed=seed), rtt, moves, seconds)
+            rows[f"{rtt:g}s"] = {
+                "twin_max_mm": round(result.max_mm, 2),
+                "twin_p95_mm": round(result.p95_mm, 2),
+                "delayed_picture_max_mm": round(result.delayed_max_mm, 1),
+                "ratio": round(result.max_mm / result.delayed_max_mm, 4),
+                "states_judged": len(result.errors_m),
+            }
+        out[name] = rows
+    out["restart_cost_s"] = {f"{rtt:g}s": round(restart_cost_s(rtt), 3) for rtt in RTTS_S}
+    print(json.dumps(out))
+
+
+if __name__ == "__main__":
+    main()
