@@ -524,3 +524,31 @@ def test_the_ghost_moves_at_once_on_send_and_its_error_is_judged(server: Service
             app.close()
     assert moved_after_s < 0.1
     assert summary is not None and summary[1] < 0.002
+
+
+def test_preview_says_how_a_move_ends_and_step_sends_its_first_part(
+    console: ConsoleApp, server: ServiceProcess
+) -> None:
+    """Issue 14, after IPSE: Preview runs the desk's 10 s PTWL to its exit on a copy of the model
+    from the twin's state in under 1 s, sending nothing; Send step sends its first 25 %."""
+    wait_for_state(console)
+    deadline = time.monotonic() + 10
+    while (console.twin is None or console.twin.point is None) and time.monotonic() < deadline:
+        time.sleep(0.02)
+    with viser_client(console) as desk, RobotClient(server.url) as robot:
+        console.seat.take(desk.client_id)
+        desk.panel.frame.value = "base"
+        desk.panel.translation.value = (0.0, 40.0, 20.0)
+        desk.panel.duration.value = 10.0
+        sent_before = len(robot.commands(limit=1000))
+        console.preview(desk)
+        shown = desk.panel.preview_html.content
+        assert 'data-exit="goal_reached"' in shown and len(robot.commands(limit=1000)) == sent_before
+        compute_s = float(shown.split('data-compute-s="')[1].split('"')[0])
+        duration_s = float(shown.split('data-duration="')[1].split('"')[0])
+        assert compute_s < 1.0 and duration_s == pytest.approx(10.0, abs=0.6)
+        assert desk.preview_marks.port.visible and len(desk.preview_marks.port.points) > 400
+        console.send(desk, "ptwl", desk.panel.step_params())
+        step = robot.commands(limit=1)[-1]
+    assert step.params["translation"] == pytest.approx([0.0, 0.010, 0.005])
+    assert step.params["duration"] == pytest.approx(2.5)

@@ -20,6 +20,7 @@ import viser
 
 from robot_sim.behaviors import BehaviorParams
 from robot_sim.gains import Gains
+from robot_sim.params import PtwlParams
 from server.client import RobotClient, RobotError
 from server.models import GeometryModel
 from web.board import Board
@@ -33,6 +34,7 @@ from web.handshake import Catalog, Handshake
 from web.history import CommandHistory, CommandView
 from web.link_poller import LinkPoller
 from web.playback import Playback, replay_status
+from web.preview import Previewer
 from web.robot_view import RobotView
 from web.seat import ControlSeat, operator_name
 from web.status_bar import BarInputs, Level, StatusBar
@@ -96,6 +98,7 @@ class ConsoleApp:
         self.ghost: GhostView | None = None
         self.twin_worker: TwinWorker | None = None
         self._prediction: Prediction | None = None
+        self.previewer = Previewer()
 
     @property
     def url(self) -> str:
@@ -174,6 +177,7 @@ class ConsoleApp:
             self._port,
             self.send,
             self.check,
+            self.preview,
         )
         desk.panel.show_scene_task(self.scene_name)
         with self._lock:
@@ -214,6 +218,17 @@ class ConsoleApp:
         gains = Gains.of(now["stiffness"], now["damping"], now["frame"]) if now else None
         q_world_port = np.asarray(state["port"]["quaternion"]) if state else None
         return check_command(behavior, params, gains, q_world_port)
+
+    def preview(self, desk: Desk) -> None:
+        """Run the desk's PTWL on a copy of the model from where the twin puts the robot now."""
+        checked = self.check("ptwl", desk.params("ptwl"))
+        point = self.twin.point if self.twin is not None else None
+        if not isinstance(checked.params, PtwlParams):
+            desk.show_preview(None, f"no preview: {checked.errors}")
+        elif point is None:
+            desk.show_preview(None, "no preview: the twin has no robot state yet")
+        else:
+            desk.show_preview(self.previewer.run(point, checked.params))
 
     def send(self, desk: Desk, behavior: str, params: dict[str, Any]) -> None:
         """Send from a desk: only the one holding control; the record says who sent it."""

@@ -10,12 +10,15 @@ import viser
 from web.checks import Check
 from web.defaults import ConsoleDefaults
 from web.markers import TargetMarker
-from web.panel import Panel
+from web.panel import Panel, preview_html
+from web.preview import PreviewResult
+from web.preview_marks import PreviewMarks
 from web.seat import ControlSeat, operator_name
 from web.targets import Pose, displacement_to, ptwl_target
 
 YELLOW = (250, 204, 21)
 SendFn = Callable[["Desk", str, dict[str, Any]], None]
+PreviewFn = Callable[["Desk"], None]
 CheckFn = Callable[[str, dict[str, Any]], Check]
 
 
@@ -31,6 +34,7 @@ class Desk:
         port: Callable[[], Pose | None],
         send: SendFn,
         check: CheckFn,
+        preview: PreviewFn,
     ) -> None:
         self.client = client
         self.name = operator_name(client.client_id) or ""
@@ -48,10 +52,13 @@ class Desk:
             distance_anchor="top-right",  # the commanded line's length is written bottom-left
         )
         self.gizmo = scene.add_transform_controls("/gizmo", scale=0.08, visible=False)
+        self.preview_marks = PreviewMarks(scene)
         panel = self.panel
         panel.take_control.on_click(lambda _: seat.take(client.client_id))
         for behavior, button in panel.sends.items():
             button.on_click(self._sender(send, behavior))
+        panel.send_step.on_click(lambda _: send(self, "ptwl", panel.step_params()))
+        panel.preview.on_click(lambda _: preview(self))
         for behavior, form in panel.forms.items():  # Enter in one of the tab's fields
             form.on_submit(self._key_sender(send, behavior))
         for field in (panel.translation, panel.rotation, panel.frame, panel.show_gizmo):
@@ -86,6 +93,16 @@ class Desk:
                 send(self, behavior, self.params(behavior))
 
         return send_if_enabled
+
+    def show_preview(self, result: PreviewResult | None, note: str = "") -> None:
+        """A preview's paths and exit in this browser only; None: why there is none (`note`)."""
+        if result is None:
+            self.preview_marks.hide()
+            self.panel.preview_html.content = preview_html(None).replace("no preview yet", note)
+            return
+        # Not inside client.atomic(): from a click handler it deadlocked with the twin's server.atomic().
+        self.preview_marks.show(result)
+        self.panel.preview_html.content = preview_html(result)
 
     def clear_contemplated(self) -> None:
         self.panel.set_ptwl_displacement(np.zeros(3), np.zeros(3))

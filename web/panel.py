@@ -17,6 +17,10 @@ from web.defaults import ConsoleDefaults
 AXES = ("x", "y", "z", "rx", "ry", "rz")
 AMPLITUDE_LABELS = {"torsional": "Amplitude [deg]", "translational": "Amplitude (radius) [mm]"}
 FORM_ORDER = 10.0
+PREVIEW_HINT = (
+    "run this PTWL on the ground twin, from where it puts the robot now, to its exit; nothing is sent"
+)
+STEP_HINT = "send only the first part: displacement and duration times the step (repeat to walk on)"
 MONITOR_HINT = (
     "learn the friction while sliding in contact (mu |F_n| + c) and end the command 'anomaly' "
     "on a jam or a change of surface; the plate's normal is base z"
@@ -76,6 +80,11 @@ class Panel:
             self.show_gizmo = gui.add_checkbox("Drag target in 3D", False)
             self.ptwl_check = gui.add_html(_check_html("ptwl", "", []))
             self.send_ptwl = gui.add_button("Send cmd", color="blue", disabled=True)
+            # IPSE's preview and step: see it run on the twin first; send it a part at a time.
+            self.preview = gui.add_button("Preview", color="gray", hint=PREVIEW_HINT)
+            self.preview_html = gui.add_html(preview_html(None))
+            self.step_percent = gui.add_number("Step [% of the move]", 25.0, min=1.0, max=100.0, step=5.0)
+            self.send_step = gui.add_button("Send step", color="cyan", disabled=True, hint=STEP_HINT)
         with tabs.add_tab("RWE"), gui.add_form(None) as self.forms["rwe"]:
             self.rwe_axes = {a: gui.add_checkbox(a, a in defaults.rwe["axes"]) for a in AXES}
             self.rwe_duration = gui.add_number(
@@ -215,6 +224,7 @@ class Panel:
     def _refresh_buttons(self) -> None:
         for behavior, button in self.sends.items():
             button.disabled = not (self._mine and self._valid[behavior])
+        self.send_step.disabled = self.send_ptwl.disabled  # the same PTWL, a part of it
 
     def _stiffness_html(self) -> str:
         preset = self.stiffness_presets[str(self.stiffness.value)]
@@ -261,6 +271,16 @@ class Panel:
             "preset": str(self.stiffness.value),
             **({"monitor": {}} if self.monitor.value else {}),  # the robot's default settings
         }
+
+    def step_params(self) -> dict[str, Any]:
+        """The first part of the PTWL (IPSE's step): displacement and duration scaled alike, so the
+        attractor walks the first stretch of the same path at the same speed."""
+        params = self.ptwl_params()
+        part = float(self.step_percent.value) / 100.0
+        params["translation"] = [part * v for v in params["translation"]]
+        params["rotation"] = [part * v for v in params["rotation"]]
+        params["duration"] *= part
+        return params
 
     def set_ptwl_displacement(self, translation_m: np.ndarray, rotation_rad: np.ndarray) -> None:
         _set(self.translation, np.round(np.asarray(translation_m) * 1000.0, 2))
@@ -367,4 +387,20 @@ def _check_html(behavior: str, errors: str, warnings: list[str]) -> str:
     return (
         f'<div id="ptwl-check-{behavior}" data-valid="{int(not errors)}" data-warnings="{len(warnings)}" '
         f'style="font-size:0.8em;color:{color};padding:0 4px">{html.escape(body)}</div>'
+    )
+
+
+def preview_html(result: Any) -> str:
+    """What the preview says (a PreviewResult, or None before one): exit, when, peak force."""
+    if result is None:
+        return (
+            '<div id="ptwl-preview" data-exit="" style="color:#868e96;font-size:0.85em">no preview yet</div>'
+        )
+    return (
+        f'<div id="ptwl-preview" data-exit="{result.exit}" data-duration="{result.duration_s:.3f}" '
+        f'data-peak-force="{result.peak_force_n:.3f}" data-compute-s="{result.compute_s:.3f}" '
+        'style="font-size:0.85em">'
+        f"preview: <b>{html.escape(result.exit)}</b> after {result.duration_s:.2f} s, "
+        f"peak {result.peak_force_n:.1f} N / {result.peak_torque_nm:.2f} N m "
+        f'<span style="color:#868e96">(computed in {result.compute_s:.2f} s)</span></div>'
     )

@@ -52,6 +52,18 @@ class Sent:
 
 
 @dataclass(frozen=True)
+class TwinPoint:
+    """The twin's state now, to start another simulation from (a preview: web/preview.py)."""
+
+    scene: str
+    sim_time: float
+    joint_positions: tuple[float, ...]
+    attractor: Pose
+    gains: Gains
+    busy: bool  # a command still runs or waits in the twin
+
+
+@dataclass(frozen=True)
 class Prediction:
     sim_time: float
     port: tuple[np.ndarray, np.ndarray]  # position [m], wxyz
@@ -105,6 +117,7 @@ class GroundTwin:
         self._times: list[float] = []  # recorded predictions, sim time ascending
         self._ports: list[np.ndarray] = []
         self.latest: Prediction | None = None
+        self.point: TwinPoint | None = None
         self.errors: deque[tuple[float, float]] = deque()  # (arrival wall, |error| [m])
 
     # ----------------------------------------------------------- inputs (any thread)
@@ -173,6 +186,15 @@ class GroundTwin:
         ctl = self.sim.controller
         port = (ctl.p_world_port.copy(), ctl.q_world_port.copy())
         self.latest = Prediction(self.sim.time, port, body_poses(self.sim.model, self.sim.data, self._moving))
+        state_now = self.sim.state()
+        self.point = TwinPoint(
+            self.sim.scene.name,
+            self.sim.time,
+            state_now.joint_positions,
+            state_now.attractor,
+            ctl.gains,
+            self.sim.behavior is not None or bool(self._queue),
+        )
         return self.latest
 
     def _restart(

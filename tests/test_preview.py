@@ -1,0 +1,44 @@
+"""Preview before Send (issue 14): a contemplated command run to its exit on a copy of the model
+from the twin's state, in well under a second for a 10 s command, matching what the robot does."""
+
+import numpy as np
+import pytest
+
+from robot_sim.behaviors import ExitCondition, behavior_for
+from robot_sim.params import PtwlParams
+from robot_sim.sim import Simulation
+from web.preview import Previewer
+from web.twin import TwinPoint
+
+
+def point(sim: Simulation) -> TwinPoint:
+    state = sim.state()
+    return TwinPoint(
+        sim.scene.name, sim.time, state.joint_positions, state.attractor, sim.controller.gains, False
+    )
+
+
+def test_a_10_s_move_is_previewed_in_under_a_second_and_goes_where_the_robot_goes() -> None:
+    robot = Simulation("free_space")
+    move = PtwlParams(translation=[0.05, -0.08, 0.03], frame="base", duration=10.0)
+    previewer = Previewer()
+    previewer.run(point(robot), PtwlParams(duration=0.1))  # the model is built once per scene
+    preview = previewer.run(point(robot), move)
+    assert preview.compute_s < 1.0
+    report = robot.run_behavior(behavior_for(move))
+    assert preview.exit == report.exit.value == "goal_reached"
+    assert preview.duration_s == pytest.approx(report.duration, abs=0.05)
+    np.testing.assert_allclose(preview.port_path[-1], report.final_port.position, atol=1e-4)
+    np.testing.assert_allclose(preview.attractor_path[0], robot.state().port.position, atol=0.1)  # a path
+    assert len(preview.port_path) > 400  # 20 ms points over ~10 s
+
+
+def test_a_press_into_the_plate_previews_its_breach_and_peak_force() -> None:
+    robot = Simulation("surface")
+    press = PtwlParams(
+        translation=[0, 0, -0.06], frame="base", duration=2.0, force_threshold=15.0, on_breach="freeze"
+    )
+    preview = Previewer().run(point(robot), press)
+    report = robot.run_behavior(behavior_for(press))
+    assert preview.exit == report.exit.value == ExitCondition.WRENCH_BREACH.value
+    assert preview.peak_force_n == pytest.approx(report.peak_force, rel=0.02) and preview.peak_force_n > 15.0
