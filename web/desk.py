@@ -100,7 +100,6 @@ class Desk:
             self.preview_marks.hide()
             self.panel.preview_html.content = preview_html(None).replace("no preview yet", note)
             return
-        # Not inside client.atomic(): from a click handler it deadlocked with the twin's server.atomic().
         self.preview_marks.show(result)
         self.panel.preview_html.content = preview_html(result)
 
