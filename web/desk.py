@@ -98,7 +98,7 @@ class Desk:
         """A preview's paths and exit in this browser only; None: why there is none (`note`)."""
         if result is None:
             self.preview_marks.hide()
-            self.panel.preview_html.content = preview_html(None).replace("no preview yet", note)
+            self.panel.preview_html.content = preview_html(None, note)
             return
         self.preview_marks.show(result)
         self.panel.preview_html.content = preview_html(result)

@@ -390,11 +390,12 @@ def _check_html(behavior: str, errors: str, warnings: list[str]) -> str:
     )
 
 
-def preview_html(result: Any) -> str:
-    """What the preview says (a PreviewResult, or None before one): exit, when, peak force."""
+def preview_html(result: Any, note: str = "no preview yet") -> str:
+    """What the preview says (a PreviewResult; None: `note`, why there is none): exit, when, peak."""
     if result is None:
         return (
-            '<div id="ptwl-preview" data-exit="" style="color:#868e96;font-size:0.85em">no preview yet</div>'
+            '<div id="ptwl-preview" data-exit="" style="color:#868e96;font-size:0.85em">'
+            f"{html.escape(note)}</div>"
         )
     return (
         f'<div id="ptwl-preview" data-exit="{result.exit}" data-duration="{result.duration_s:.3f}" '

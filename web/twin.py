@@ -227,7 +227,10 @@ class GroundTwin:
             if sim.behavior is None and self._queue and sim.time >= self._queue[0][1]:
                 sim.start(behavior_for(self._queue.popleft()[0]))
             sim.step()
-            if record and (not self._times or sim.time >= self._times[-1] + RECORD_S):
+            last = self._times[-1] if self._times else None
+            # Record every RECORD_S, and at once when time went back (a scene reset: the records
+            # of the old scene's times must go, or new states are judged against them).
+            if record and (last is None or sim.time >= last + RECORD_S or sim.time < last):
                 self._record(sim.time, sim.controller.p_world_port.copy())
 
     def _record(self, sim_time: float, port: np.ndarray) -> None:
