@@ -16,6 +16,7 @@ import time
 from robot_sim.behaviors import BehaviorParams
 from robot_sim.params import PtwlParams
 from robot_sim.sim import Simulation
+from robot_sim.telemetry import state_fields
 from web.twin import GroundTwin
 from web.twin_trial import contact_moves, free_space_moves, run_trial
 
@@ -33,19 +34,7 @@ CASES: dict[str, tuple[str, int | None, list[tuple[float, BehaviorParams]], floa
 def restart_cost_s(rtt_s: float) -> float:
     """Wall time for one twin restart that simulates a round trip ahead."""
     sim = Simulation("free_space")
-    state = {
-        "sim_time": 0.0,
-        "sent_at": 0.0,
-        "scene": "free_space",
-        "port": sim.state().port.as_dict(),
-        "attractor": sim.state().attractor.as_dict(),
-        "joint_positions": list(sim.state().joint_positions),
-        "gains": {
-            "stiffness": sim.controller.gains.stiffness.tolist(),
-            "damping": sim.controller.gains.damping.tolist(),
-            "frame": sim.controller.gains.frame,
-        },
-    }
+    state = {**state_fields(sim, []), "sent_at": 0.0}
     twin = GroundTwin(uplink_s=lambda: rtt_s / 2.0)
     twin.on_state(state, 0.0)
     twin.advance(0.0)  # builds the twin's model

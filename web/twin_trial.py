@@ -14,6 +14,7 @@ import numpy as np
 from robot_sim.behaviors import BehaviorParams, behavior_for
 from robot_sim.params import PtwlParams
 from robot_sim.sim import Simulation
+from robot_sim.telemetry import state_fields
 from web.twin import GroundTwin, Sent
 
 STATE_S = 0.02  # telemetry at 50 Hz
@@ -107,19 +108,7 @@ def run_trial(
             running = None
         if robot.time - t0 >= next_state:
             next_state += STATE_S
-            state: dict[str, Any] = {
-                "sim_time": robot.time,
-                "sent_at": WALL0 + robot.time,
-                "scene": robot.scene.name,
-                "port": robot.state().port.as_dict(),
-                "attractor": robot.state().attractor.as_dict(),
-                "joint_positions": list(robot.state().joint_positions),
-                "gains": {
-                    "stiffness": robot.controller.gains.stiffness.tolist(),
-                    "damping": robot.controller.gains.damping.tolist(),
-                    "frame": robot.controller.gains.frame,
-                },
-            }
+            state = {**state_fields(robot, []), "sent_at": WALL0 + robot.time}  # as the robot sends it
             to_console.append((wall + down_s, "state", state))
             history.append((robot.time, robot.controller.p_world_port.copy()))
         while to_console and to_console[0][0] <= wall:
