@@ -125,6 +125,9 @@ class GroundTwin:
         """A telemetry state arrived: the twin's next start, and a judge of what it predicted.
         Returns |predicted - reported| port position [m], if it had predicted that instant."""
         with self._lock:
+            if self._state is not None and float(state["sim_time"]) < float(self._state["sim_time"]):
+                self._times.clear()  # a scene (re)loaded: what was predicted for the old one goes
+                self._ports.clear()
             self._state = state
             error = self._error_for(state)
             if error is not None:
@@ -227,17 +230,12 @@ class GroundTwin:
             if sim.behavior is None and self._queue and sim.time >= self._queue[0][1]:
                 sim.start(behavior_for(self._queue.popleft()[0]))
             sim.step()
-            last = self._times[-1] if self._times else None
-            # Record every RECORD_S, and at once when time went back (a scene reset: the records
-            # of the old scene's times must go, or new states are judged against them).
-            if record and (last is None or sim.time >= last + RECORD_S or sim.time < last):
+            # What the ghost shows, every RECORD_S: a restart's replay up to there is not recorded.
+            if record and (not self._times or sim.time >= self._times[-1] + RECORD_S):
                 self._record(sim.time, sim.controller.p_world_port.copy())
 
     def _record(self, sim_time: float, port: np.ndarray) -> None:
         with self._lock:
-            if self._times and sim_time < self._times[-1]:  # a new scene: time starts again
-                self._times.clear()
-                self._ports.clear()
             self._times.append(sim_time)
             self._ports.append(port)
             if len(self._times) > 6000:  # a minute of predictions is plenty to judge by
