@@ -10,11 +10,11 @@ import viser
 
 from server.models import GeometryModel
 from web.meshes import body_parts
+from web.sent_values import SentValues
 from web.twin import Prediction
 
 CYAN = (21, 170, 191)
 GHOST_OPACITY = 0.35
-MOVE_EPSILON = 1e-5  # [m] and quaternion units: below this a pose is not re-sent
 
 
 class GhostView:
@@ -23,7 +23,7 @@ class GhostView:
         self._lock = threading.Lock()
         self._bodies: dict[str, viser.FrameHandle] = {}
         self._meshes: list[viser.MeshHandle] = []
-        self._sent: dict[str, np.ndarray] = {}
+        self._sent = SentValues()
         scene = server.scene
         self.port = scene.add_frame(
             "/twin_port", axes_length=0.05, axes_radius=0.003, origin_radius=0.005, visible=False
@@ -37,7 +37,8 @@ class GhostView:
         with self._lock:
             for handle in [*self._meshes, *self._bodies.values()]:
                 handle.remove()
-            self._meshes, self._bodies, self._sent = [], {}, {}
+            self._meshes, self._bodies = [], {}
+            self._sent.clear()
             for name, parts in body_parts(geometry).items():
                 body = geometry.bodies.get(name)
                 if body is None or not body.moving:
@@ -74,9 +75,5 @@ class GhostView:
                 self.label.text = error_text
 
     def _place(self, key: str, handle: viser.FrameHandle, pose: np.ndarray) -> None:
-        last = self._sent.get(key)
-        if last is not None and float(np.max(np.abs(last - pose))) < MOVE_EPSILON:
-            return
-        self._sent[key] = pose
-        handle.position, handle.wxyz = pose[0:3], pose[3:7]
-        handle.visible = True
+        if self._sent.place(key, handle, pose):
+            handle.visible = True

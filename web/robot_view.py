@@ -16,8 +16,9 @@ import numpy as np
 import viser
 
 from server.models import GeometryModel
-from web.markers import MOVE_EPSILON, TargetMarker
+from web.markers import TargetMarker
 from web.meshes import MeshPart, body_parts
+from web.sent_values import SentValues
 from web.targets import Pose
 
 RED = (224, 49, 49)
@@ -39,7 +40,7 @@ class RobotView:
         self._bodies: dict[str, viser.FrameHandle] = {}
         self._meshes: list[tuple[viser.MeshHandle, MeshPart]] = []
         self.stale = False
-        self._sent: dict[str, np.ndarray] = {}
+        self._sent = SentValues()
         scene = server.scene
         scene.set_up_direction("+z")
         # Without a GPU (software WebGL) shadow maps cost most of every frame; the lights stay.
@@ -140,24 +141,14 @@ class RobotView:
         force = np.asarray(state["wrench"][0:3], dtype=float)
         # The environment's force on the port, drawn ending at the port: from outside the tool.
         arrow = np.stack([tip - force * self.arrow_m_per_n, tip])[None]
-        if self._moved("/wrench", arrow.ravel()):
+        if self._sent.moved("/wrench", arrow.ravel()):
             self.wrench.points = arrow
-        if self._moved("/port-line", tip):
+        if self._sent.moved("/port-line", tip):
             self._port = tip
             self._show_commanded(*self._commanded)
 
-    def _moved(self, key: str, values: np.ndarray) -> bool:
-        last = self._sent.get(key)
-        if last is not None and float(np.max(np.abs(last - values))) < MOVE_EPSILON:
-            return False
-        self._sent[key] = values
-        return True
-
     def _place(self, key: str, handle: viser.FrameHandle, position: list, wxyz: list) -> None:
-        pose = np.array([*position, *wxyz], dtype=float)
-        if self._moved(key, pose):
-            handle.position = pose[0:3]
-            handle.wxyz = pose[3:7]
+        self._sent.place(key, handle, np.array([*position, *wxyz], dtype=float))
 
     def show_commanded(self, target: Pose | None, resolved: bool = False) -> None:
         """The commanded target: solid where the robot resolved it, an outline where it is only

@@ -15,6 +15,7 @@ from typing import Any, Literal
 
 import viser
 
+from web.twin import describe_error
 from web.worker import Worker
 
 TICK_S = 0.08  # the bar's refresh period: 12.5 updates/s whether or not telemetry arrives
@@ -138,12 +139,12 @@ def _prediction_html(port: tuple[float, float, float] | None, error: tuple[float
     if port is None:
         return '<div id="ptwl-prediction" data-x="" data-error-mm="" data-max-mm=""></div>'
     x, y, z = (1000.0 * v for v in port)
-    if error is None:
-        judged, data = "not judged yet", 'data-error-mm="" data-max-mm=""'
-    else:
-        last, worst = (1000.0 * e for e in error)
-        judged = f"off {last:.1f} mm (max {worst:.1f} over 5 s)"
-        data = f'data-error-mm="{last:.3f}" data-max-mm="{worst:.3f}"'
+    judged = describe_error(error)
+    data = (
+        'data-error-mm="" data-max-mm=""'
+        if error is None
+        else f'data-error-mm="{1000.0 * error[0]:.3f}" data-max-mm="{1000.0 * error[1]:.3f}"'
+    )
     return (
         f'<div id="ptwl-prediction" data-x="{x:.2f}" data-y="{y:.2f}" data-z="{z:.2f}" {data} '
         f'style="color:#0c8599">twin: port ({x:.1f}, {y:.1f}, {z:.1f}) mm · {judged}</div>'

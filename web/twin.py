@@ -260,3 +260,11 @@ class GroundTwin:
             if not self.errors:
                 return None
             return self.errors[-1][1], max(e for _, e in self.errors)
+
+
+def describe_error(summary: tuple[float, float] | None) -> str:
+    """How far the twin's port predictions were off (last, 5 s max), in the operator's words."""
+    if summary is None:
+        return "not judged yet"
+    last, worst = (1000.0 * e for e in summary)
+    return f"off {last:.1f} mm (max {worst:.1f} over {ERROR_WINDOW_S:g} s)"

@@ -3,6 +3,7 @@ link that delays commands by the uplink and states and events by the downlink, a
 as the console feeds it. Deterministic and faster than real time; the tests and bench.twin use
 it to measure the prediction error the console's readout shows."""
 
+import bisect
 import itertools
 from collections import deque
 from collections.abc import Callable
@@ -143,8 +144,9 @@ def _pending(clock: list[float], started: set[int], cid: int, acked_wall: float)
 
 
 def _port_at(history: list[tuple[float, np.ndarray]], sim_time: float) -> np.ndarray:
-    earlier = [port for t, port in history if t <= sim_time + 1e-9]
-    return earlier[-1] if earlier else history[0][1]
+    """The last port sent at or before `sim_time` (history is in time order)."""
+    i = bisect.bisect_right(history, sim_time + 1e-9, key=lambda entry: entry[0])
+    return history[max(i - 1, 0)][1]
 
 
 def free_space_moves() -> list[tuple[float, BehaviorParams]]:

@@ -7,7 +7,7 @@ from collections.abc import Callable
 import viser
 
 from web.ghost import GhostView
-from web.twin import GroundTwin, Prediction
+from web.twin import GroundTwin, Prediction, describe_error
 from web.worker import Worker
 
 TICK_S = 0.02
@@ -15,10 +15,7 @@ TICK_S = 0.02
 
 def error_text(summary: tuple[float, float] | None) -> str:
     """The ghost's label: how far its predictions of the port were off when telemetry showed them."""
-    if summary is None:
-        return "predicted (not yet judged)"
-    last, worst = (1000.0 * e for e in summary)
-    return f"predicted · off {last:.1f} mm (max {worst:.1f} over 5 s)"
+    return f"predicted · {describe_error(summary)}"
 
 
 class TwinWorker(Worker):
