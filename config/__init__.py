@@ -1,8 +1,12 @@
 """The installation's configuration files (TOML), and the one rule for where they are."""
 
 import os
+import tomllib
 from importlib import resources
 from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
 
 CONFIG_DIR_ENV = "PTWL_CONFIG_DIR"
 
@@ -13,3 +17,23 @@ def config_dir() -> Path:
     if override:
         return Path(override)
     return Path(str(resources.files("ptwl_config")))
+
+
+def read_toml(path: Path) -> dict[str, Any]:
+    """A config file's tables; ConfigError names the file when it cannot be read or parsed."""
+    from robot_sim.errors import ConfigError
+
+    try:
+        return tomllib.loads(path.read_text())
+    except OSError as err:
+        raise ConfigError(f"{path}: cannot read: {err}") from None
+    except tomllib.TOMLDecodeError as err:
+        raise ConfigError(f"{path}: not valid TOML: {err}") from None
+
+
+def validation_problem(err: ValidationError) -> str:
+    """A config table's first validation error as `key: message`."""
+    first = err.errors()[0]
+    where = ".".join(str(p) for p in first["loc"])
+    message = str(first["msg"]).removeprefix("Value error, ")
+    return f"{where}: {message}" if where else message

@@ -21,10 +21,10 @@ and the joint velocities is linear in them, so it is one precomposed (6, 13) mat
 where Q = P [B^-1 D | B^-1 K_pos | B^-1 K_rot R_port | B^-1 bias], P the DLS inverse, D and
 bias the payload-compensated sensor map rotated to base axes, and B^-1, B^-1 K the diagonal
 gains turned from their frame's axes into base axes (R diag R^T; R = I for `base`, R_port for
-`tool`). Q depends only on the arm's configuration (J, sensor and port orientation) and is
-rebuilt every KINEMATICS_TICKS ticks (8 ms), or every tick while |qdot| > 1 rad/s or near a
-singularity: between rebuilds the configuration moves < 8 mrad, and < 1 mrad at quasi-static
-speeds. Wrench and stretch feedback stay at the full 1 kHz.
+`tool`, a task frame's fixed rotation). Q depends only on the arm's configuration (J, sensor
+and port orientation) and is rebuilt every KINEMATICS_TICKS ticks (8 ms), or every tick while
+|qdot| > 1 rad/s or near a singularity: between rebuilds the configuration moves < 8 mrad, and
+< 1 mrad at quasi-static speeds. Wrench and stretch feedback stay at the full 1 kHz.
 """
 
 import math
@@ -182,7 +182,7 @@ class AdmittanceController:
         self._k_over_b = gains.stiffness * self._inv_damping
         self._tool_frame_gains = gains.frame == "tool"
         if not self._tool_frame_gains:
-            self._R_gains[:] = np.eye(3)
+            self._R_gains[:] = gains.fixed_axes_world()
             self._rotate_gains()  # constant in base axes: once here, not per refresh
         self.refresh_kinematics()
 
@@ -286,10 +286,11 @@ class AdmittanceController:
         return np.concatenate([self._v_stretch_pos, R_port @ self._v_rot_err_port])
 
     def gains_rotation(self) -> np.ndarray:
-        """(3, 3) the gains' axes in base axes: I for `base`, the port's rotation for `tool`."""
+        """(3, 3) the gains' axes in base axes: I for `base`, the port's rotation for `tool`, a
+        task frame's own."""
         if self.gains.frame == "tool":
             return self._R_world_port_flat.reshape(3, 3).copy()
-        return np.eye(3)
+        return self.gains.fixed_axes_world().copy()
 
     def _diag_world(self, diagonal: np.ndarray) -> np.ndarray:
         """(6, 6) blockdiag(R diag R^T) of a (6,) diagonal in the gains' axes."""

@@ -11,11 +11,11 @@ import numpy as np
 
 from robot_sim.gains import Gains
 from robot_sim.params import PtwlParams
-from robot_sim.pose_math import rotation_matrix
+from robot_sim.task_frames import TaskFrames
 
 
 def impact_warnings(
-    params: PtwlParams, current: Gains, q_world_port: "list[float] | np.ndarray"
+    params: PtwlParams, current: Gains, q_world_port: "list[float] | np.ndarray", frames: TaskFrames
 ) -> list[str]:
     """Warnings for a PTWL whose approach would overshoot its thresholds on contact.
 
@@ -23,13 +23,13 @@ def impact_warnings(
         params: the PTWL as validated.
         current: the gains in force now (used unless the PTWL names its own).
         q_world_port: the port's orientation now, wxyz (turns tool-frame vectors and gains).
+        frames: the task frames the PTWL's `frame` and `gains_frame` may name (known ones).
     Returns:
         One sentence per threshold that B v passes; empty when the approach is gentle enough.
     """
     gains = params.gains(current)
-    R_world_port = rotation_matrix(np.asarray(q_world_port, dtype=float))
-    R_world_gains = R_world_port if gains.frame == "tool" else np.eye(3)
-    R_world_move = R_world_port if params.frame == "tool" else np.eye(3)
+    R_world_gains = frames.axes_world(gains.frame, q_world_port)
+    R_world_move = frames.axes_world(params.frame, q_world_port)
     warnings = []
     checks = (
         (params.translation, gains.damping[0:3], params.force_threshold, "force", "m/s", "N s/m", "N"),

@@ -120,6 +120,13 @@ ON_BREACH_DOC = (
 )
 GAINS_FRAME_DOC = "axes K and B are diagonal in: `base`, or `tool` (the port's axes, turning with it)"
 
+# `tool`, `base`, or a task frame's name (robot_sim/task_frames.py; GET /api/frames lists them).
+# Whether the name exists is the robot's to say: frames belong to the loaded scene.
+FRAME_NAME_PATTERN = r"^[A-Za-z][A-Za-z0-9_]{0,31}$"
+FrameName = Annotated[str, Field(pattern=FRAME_NAME_PATTERN, min_length=1, max_length=32)]
+FRAME_FIELDS = ("frame", "gains_frame")  # the fields of a command that name a frame
+TASK_FRAME_DOC = ", or a task frame's name (GET /api/frames)"
+
 
 class GainsSpec(StrictModel):
     """Diagonal stiffness and damping on axes x y z rx ry rz of `frame`, within the stable range."""
@@ -232,7 +239,10 @@ class PtwlParams(Expiring):
     rotation: Annotated[Vec3, _vector(limits.MAX_ROTATION_RAD, "rad")] = Field(
         default_factory=lambda: [0.0, 0.0, 0.0], description="rotation vector [rad] in `frame`; |r| <= pi"
     )
-    frame: Literal["tool", "base"] = Field("tool", description="axes of translation and rotation")
+    frame: FrameName = Field(
+        "tool",
+        description="axes of translation and rotation: `tool` (the port's at start), `base`" + TASK_FRAME_DOC,
+    )
     duration: Duration = Field(2.0, description="[s] attractor travel time, (0, 600]")
     force_threshold: ForceThreshold = Field(20.0, description="[N] |f| above this ends wrench_breach; <= 500")
     torque_threshold: TorqueThreshold = Field(
@@ -245,8 +255,10 @@ class PtwlParams(Expiring):
     preset: str | None = Field(None, description="stiffness/damping preset name")
     stiffness: Vec6 | None = Field(None, description="explicit [N/m x3, N m/rad x3], with damping")
     damping: Vec6 | None = Field(None, description="explicit [N s/m x3, N m s/rad x3], with stiffness")
-    gains_frame: GainsFrame | None = Field(
-        None, description=GAINS_FRAME_DOC + "; default: the preset's, else base (explicit), else unchanged"
+    gains_frame: FrameName | None = Field(
+        None,
+        description=GAINS_FRAME_DOC + TASK_FRAME_DOC + "; default: the preset's, else base (explicit), "
+        "else unchanged",
     )
     monitor: MonitorSpec | None = Field(None, description=MONITOR_DOC)
 
@@ -274,8 +286,8 @@ class RweParams(Expiring):
         default_factory=lambda: list(AXIS_NAMES), min_length=1, description="axes to relieve"
     )
     duration: Duration = Field(1.0, description="[s] how long the attractor tracks the port, (0, 600]")
-    frame: Literal["base", "tool"] = Field(
-        "base", description="axes of `axes`: base, or the port's axes at start"
+    frame: FrameName = Field(
+        "base", description="axes of `axes`: `base`, `tool` (the port's at start)" + TASK_FRAME_DOC
     )
     force_residual: Threshold = Field(1.0, description="[N] relieved when |f| on the axes is below")
     torque_residual: Threshold = Field(0.1, description="[N m] and |tau| on the axes is below")
@@ -302,7 +314,10 @@ class DitherParams(Expiring):
     )
     direction: Literal["push", "pull"] = Field("push", description="advance along the axis, or retreat")
     axis: Annotated[Vec3, _vector(math.inf, "", direction=True)] = Field(
-        default_factory=lambda: [0.0, 0.0, 1.0], description="tool frame direction (any length; normalized)"
+        default_factory=lambda: [0.0, 0.0, 1.0], description="direction in `frame` (any length; normalized)"
+    )
+    frame: FrameName = Field(
+        "tool", description="axes of `axis`: `tool` (the port's at start), `base`" + TASK_FRAME_DOC
     )
     amplitude: Annotated[float, _range(0.0, limits.MAX_DITHER_AMPLITUDE, "rad or m", lo_open=True)] = Field(
         0.03, description="[rad] turn (torsional) or [m] circle radius (translational)"

@@ -5,13 +5,12 @@ preset that loads is a preset the API accepts. A bad file raises ConfigError nam
 the key and the problem.
 """
 
-import tomllib
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 from typing import Any
 
-from ptwl_config import config_dir
+from ptwl_config import config_dir, read_toml, validation_problem
 from pydantic import ValidationError
 
 from robot_sim.errors import ConfigError, UnknownNameError
@@ -40,20 +39,8 @@ class Presets:
         return params.model_dump(exclude={"preset", "type", "watchdog"})
 
 
-def _problem(err: ValidationError) -> str:
-    first = err.errors()[0]
-    where = ".".join(str(p) for p in first["loc"])
-    message = str(first["msg"]).removeprefix("Value error, ")
-    return f"{where}: {message}" if where else message
-
-
 def load_presets(path: Path) -> Presets:
-    try:
-        raw = tomllib.loads(path.read_text())
-    except OSError as err:
-        raise ConfigError(f"{path}: cannot read: {err}") from None
-    except tomllib.TOMLDecodeError as err:
-        raise ConfigError(f"{path}: not valid TOML: {err}") from None
+    raw = read_toml(path)
     for section in ("stiffness", "dither"):
         if not isinstance(raw.get(section), dict) or not raw[section]:
             raise ConfigError(f"{path}: [{section}] is missing or empty")
@@ -65,7 +52,7 @@ def load_presets(path: Path) -> Presets:
         try:
             stiffness[name] = GainsSpec.model_validate(body)
         except ValidationError as err:
-            raise ConfigError(f"{path}: [stiffness.{name}] {_problem(err)}") from None
+            raise ConfigError(f"{path}: [stiffness.{name}] {validation_problem(err)}") from None
     dither: dict[str, DitherParams] = {}
     for name, table in raw["dither"].items():
         if "preset" in table:
@@ -73,7 +60,7 @@ def load_presets(path: Path) -> Presets:
         try:
             dither[name] = DitherParams.model_validate(table)
         except ValidationError as err:
-            raise ConfigError(f"{path}: [dither.{name}] {_problem(err)}") from None
+            raise ConfigError(f"{path}: [dither.{name}] {validation_problem(err)}") from None
     default = raw.get("default", {}).get("stiffness_preset", "medium")
     if default not in stiffness:
         raise ConfigError(

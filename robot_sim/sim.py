@@ -29,6 +29,7 @@ from robot_sim.payload import Payload
 from robot_sim.presets import default_presets
 from robot_sim.scenes import Scene, TaskProgress, apply_seed, get_scene
 from robot_sim.scenes.grasp import actuate
+from robot_sim.task_frames import TaskFrames, scene_frames
 from robot_sim.task_monitor import FrictionMonitor
 
 SETTLE_S = 0.3  # [s] physics in position hold at every (re)load, before compliance starts
@@ -155,6 +156,8 @@ class Simulation:
         self._limited_s: dict[Limit, float] = {}  # [s] per limit, while the behavior ran
         self._behavior_detail = ""  # what the running behavior's report will say (a grasp)
         self.monitor: FrictionMonitor | None = None  # the last behavior's task monitor, if it had one
+        # The scene's own frames where the seed put its fixtures; an operator's are added here.
+        self.frames: TaskFrames = scene_frames(spec.name, model, data)
 
     @property
     def time(self) -> float:
@@ -178,7 +181,7 @@ class Simulation:
         data.act[layout.act_adr] = joint_positions
         data.time = sim_time_s
         mujoco.mj_forward(self.model, data)
-        ctl.set_gains(gains)
+        ctl.set_gains(self.frames.resolve_gains(gains))
         ctl.enable()
         ctl.p_world_attractor[:] = attractor.position
         ctl.q_world_attractor[:] = attractor.quaternion
@@ -249,7 +252,7 @@ class Simulation:
         self._behavior_detail = ""
         spec = behavior.monitor_spec()
         self.monitor = FrictionMonitor(spec, self.control_dt) if spec is not None else None
-        behavior.start(self.controller, self.time)
+        behavior.start(self.controller, self.time, self.frames)
         if isinstance(behavior, Gripper):
             self._behavior_detail = self._actuate_gripper(behavior.params.action)
         return preempted

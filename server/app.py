@@ -14,7 +14,7 @@ from server.config import BODY_LIMIT_BYTES, HISTORY_MAX, QUEUE_MAX, ServerConfig
 from server.errors import install_error_handlers
 from server.models import COMMON_RESPONSES
 from server.recording import RecordingThread, session_metadata
-from server.routes import commands, debug, robot, scenes, telemetry
+from server.routes import commands, debug, frames, robot, scenes, telemetry
 from server.runner import SimRunner, command_event
 from server.telemetry import Broadcaster
 from server.waiters import Waiters
@@ -82,7 +82,7 @@ def create_app(config: ServerConfig) -> FastAPI:
     app.add_middleware(StrictJsonBody)
     app.add_middleware(BodyLimitMiddleware, limit=BODY_LIMIT_BYTES)
     app.add_middleware(AccessGuard, policy=config.access())
-    for module in (commands, robot, scenes, telemetry):
+    for module in (commands, frames, robot, scenes, telemetry):
         app.include_router(module.router)
     if config.fault_injection:
         app.include_router(debug.router)

@@ -24,6 +24,7 @@ from server.models import (
     SENDER_HEADER,
     CommandAccepted,
     CommandStatus,
+    FrameModel,
     GeometryModel,
     HealthModel,
     RobotStateModel,
@@ -91,6 +92,17 @@ class RobotClient:
 
     def geometry(self) -> GeometryModel:
         return GeometryModel(**self._request("GET", "/api/geometry"))
+
+    def frames(self) -> list[FrameModel]:
+        """The loaded scene's task frames (its own, then operators')."""
+        return [FrameModel(**f) for f in self._request("GET", "/api/frames")]
+
+    def add_frame(self, name: str, pose: "dict[str, list[float]] | str" = "tool") -> FrameModel:
+        """A task frame at the tool's pose now (`"tool"`), or at `{"position", "quaternion"}`."""
+        return FrameModel(**self._request("POST", "/api/frames", json={"name": name, "pose": pose}))
+
+    def delete_frame(self, name: str) -> FrameModel:
+        return FrameModel(**self._request("DELETE", f"/api/frames/{name}"))
 
     def tasks(self) -> list[TaskInfoModel]:
         """Tasks with an onboard state machine (run one with `command("state_machine", task=...)`)."""
@@ -163,7 +175,7 @@ class RobotClient:
         )
 
     def telemetry(self, open_timeout: float = 10.0, idle_s: float | None = None) -> Iterator[dict[str, Any]]:
-        """State and command messages as they arrive; stops when the server closes. With `idle_s`,
+        """State, command and frames messages as they arrive; stops when the server closes. With `idle_s`,
         `{"type": "idle"}` comes whenever nothing arrived for that long (so a reader can stop)."""
         headers = bearer_header(self.token) or None
         # Keepalive pings off: over a multi-second link they would time out; the age of the

@@ -26,6 +26,7 @@ from robot_sim.behaviors import BehaviorReport
 from robot_sim.behaviors.base import ExitCondition, Pose
 from robot_sim.executor import CommandParams
 from robot_sim.policies.run import StepRecord
+from robot_sim.task_frames import frames_named
 from server.models import CommandStatus, MachineStepModel, PoseModel
 
 
@@ -147,10 +148,14 @@ class CommandBook:
             return record
 
     def start_next(
-        self, start: Callable[[CommandRecord], Pose | None], sim_time_s: float
+        self,
+        start: Callable[[CommandRecord], Pose | None],
+        sim_time_s: float,
+        cannot_start: Callable[[CommandParams], str | None] = lambda params: None,
     ) -> CommandRecord | None:
         """Pop the oldest queued command, `start` it and mark it running (simulation thread);
-        one whose time has passed (params.py, Expiring) ends `expired` instead, unstarted.
+        one whose time has passed (params.py, Expiring) ends `expired` instead, unstarted, and one
+        that `cannot_start` gives a reason for (its task frame is gone) ends `aborted`.
 
         `start` returns the absolute goal the robot resolved (a PTWL's port-at-start (+)
         displacement), so the `running` event carries it: a console can draw the target the robot
@@ -161,9 +166,14 @@ class CommandBook:
             while self._queue:
                 record = self._queue.popleft()
                 reason = record.params.expiry_reason(time.time(), sim_time_s)
-                if reason is None:
-                    return self._start(record, start)
-                self._end_unstarted(record, ExitCondition.EXPIRED, reason)
+                if reason is not None:
+                    self._end_unstarted(record, ExitCondition.EXPIRED, reason)
+                    continue
+                refusal = cannot_start(record.params)
+                if refusal is not None:
+                    self._end_unstarted(record, ExitCondition.ABORTED, refusal)
+                    continue
+                return self._start(record, start)
             return None
 
     def _start(self, record: CommandRecord, start: Callable[[CommandRecord], Pose | None]) -> CommandRecord:
@@ -229,6 +239,12 @@ class CommandBook:
         with self._lock:
             records = list(self._records.values())[-limit:]
             return [r.to_model() for r in records]
+
+    def naming_frame(self, name: str) -> list[int]:
+        """Ids of the queued and running commands that name the task frame `name`."""
+        with self._lock:
+            waiting = [*self._queue, *([self.running] if self.running else [])]
+            return sorted(r.id for r in waiting if name in frames_named(r.params).values())
 
     def queued_count(self) -> int:
         with self._lock:

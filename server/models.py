@@ -10,7 +10,14 @@ from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Fie
 
 from robot_sim.errors import UnknownNameError
 from robot_sim.limits import MAX_SEED
-from robot_sim.params import DitherParams, GripperParams, PtwlParams, RweParams, StateMachineParams
+from robot_sim.params import (
+    DitherParams,
+    FrameName,
+    GripperParams,
+    PtwlParams,
+    RweParams,
+    StateMachineParams,
+)
 from robot_sim.scenes import SCENES, get_scene
 
 Command = Annotated[
@@ -302,3 +309,56 @@ class GainsPreset(BaseModel):
     stiffness: list[float] = Field(description="[N/m x3, N m/rad x3]")
     damping: list[float] = Field(description="[N s/m x3, N m s/rad x3]")
     description: str = ""
+
+
+class FrameModel(BaseModel):
+    """A task frame: its pose in base coordinates; commands use its axes (robot_sim/task_frames.py)."""
+
+    name: str = Field(description="what commands call it in `frame` and `gains_frame`")
+    pose: PoseModel = Field(description="origin [m] and axes (quaternion w x y z), base frame")
+    source: Literal["scene", "operator"] = Field(
+        description="scene: the scene's own, on a fixture (config/frames.toml); operator: added at run time"
+    )
+    defined_by: str = Field(description="where it came from, in words")
+
+
+MAX_FRAME_POSITION_M = 2.0  # the arm reaches ~0.6 m: a frame further out is a typing mistake
+
+
+def _pose_in_reach(pose: PoseModel) -> PoseModel:
+    norm = sum(v * v for v in pose.position) ** 0.5
+    if norm > MAX_FRAME_POSITION_M:
+        raise ValueError(
+            f"pose.position must be within {MAX_FRAME_POSITION_M:g} m of the base, got {norm:.3g} m"
+        )
+    if sum(v * v for v in pose.quaternion) < 1e-12:
+        raise ValueError("pose.quaternion must be non-zero (it is normalized)")
+    return pose
+
+
+class TypedPose(PoseModel):
+    model_config = ConfigDict(strict=True, extra="forbid", allow_inf_nan=False)
+    position: Annotated[list[float], Field(min_length=3, max_length=3)] = Field(description="[m] base frame")
+    quaternion: Annotated[list[float], Field(min_length=4, max_length=4)] = Field(
+        description="w x y z, base frame (any length; normalized)"
+    )
+
+
+class FrameRequest(BaseModel):
+    """A new task frame: the tool's pose now, or a typed pose."""
+
+    model_config = ConfigDict(strict=True, extra="forbid", allow_inf_nan=False)
+    name: FrameName = Field(description="letters, digits, _; 1-32 characters, starting with a letter")
+    pose: Annotated[TypedPose, AfterValidator(_pose_in_reach)] | Literal["tool"] = Field(
+        description="`tool`: the port's pose as the robot has it now; or a pose in base frame"
+    )
+
+
+FRAME_CONFLICT_RESPONSES: dict[int | str, dict[str, Any]] = {
+    409: _error("a frame of that name exists, is built in or the scene's own, or queued commands name it"),
+    **SIM_RESPONSES,
+}
+FRAME_NOT_FOUND_RESPONSES: dict[int | str, dict[str, Any]] = {
+    404: _error("no task frame of that name"),
+    **FRAME_CONFLICT_RESPONSES,
+}

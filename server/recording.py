@@ -74,7 +74,9 @@ class RecordingThread:
 
     def _record(self, kind: str, payload: Any, ns: int) -> None:
         if kind == "state":
-            self._recorder.state(json.loads(payload), ns)
+            message = json.loads(payload)
+            if message["type"] == "state":  # the socket's `frames` messages are not recorded (yet)
+                self._recorder.state(message, ns)
         elif kind == "command":
             self._recorder.command(json.loads(payload), ns)
         elif kind == "geometry":

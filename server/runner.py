@@ -16,12 +16,14 @@ from dataclasses import dataclass
 from typing import Any
 
 from robot_sim.behaviors import BehaviorReport
+from robot_sim.behaviors.base import Pose
 from robot_sim.executor import CommandExecutor
 from robot_sim.geometry import moving_bodies, scene_geometry
 from robot_sim.params import StateMachineParams
 from robot_sim.policies.run import StepRecord
 from robot_sim.scenes import get_scene
 from robot_sim.sim import Simulation
+from robot_sim.task_frames import TaskFrame, frame_dict, unit_quaternion
 from robot_sim.telemetry import state_fields
 from server.commands import CommandBook, CommandRecord
 from server.pacing import RealTimePacer
@@ -99,6 +101,35 @@ class SimRunner:
         self.latest_state = self._state()
         return stopped
 
+    # ------------------------------------------------------------- task frames
+    def frames(self) -> list[TaskFrame]:
+        """(simulation thread) The loaded scene's task frames, its own first."""
+        return self.sim.frames.all()
+
+    def add_frame(self, name: str, pose: Pose | None) -> TaskFrame:
+        """(simulation thread) An operator's frame at `pose`, or at the port's pose now (None)."""
+        if pose is None:
+            pose = self.sim.state().port
+            defined_by = f"tool pose at sim time {self.sim.time:.3f} s"
+        else:
+            defined_by = "typed pose"
+        frame = TaskFrame(name, pose.position, unit_quaternion(pose.quaternion), "operator", defined_by)
+        self.sim.frames.add(frame)
+        self._publish_frames()
+        return frame
+
+    def remove_frame(self, name: str) -> TaskFrame:
+        """(simulation thread) Delete an operator's frame no queued or running command names."""
+        frame = self.sim.frames.remove(name, self.book.naming_frame(name))
+        self._publish_frames()
+        return frame
+
+    def _publish_frames(self) -> None:
+        """Every client hears of a frame's coming and going on the telemetry socket."""
+        self._publish(
+            json.dumps({"type": "frames", "frames": [frame_dict(f) for f in self.sim.frames.all()]})
+        )
+
     def geometry(self) -> dict[str, Any]:
         """(simulation thread) The loaded scene's geoms and bodies (GET /api/geometry)."""
         return {"scene": self.sim.scene.name, **scene_geometry(self.sim.model, self.sim.data)}
@@ -133,7 +164,9 @@ class SimRunner:
                 request.reply.set_exception(err)
 
     def _start_next(self) -> None:
-        self.book.start_next(lambda record: self._executor.start(record.params), self.sim.time)
+        self.book.start_next(
+            lambda record: self._executor.start(record.params), self.sim.time, self.sim.frames.missing_reason
+        )
 
     def _advance(self) -> None:
         faults_before = self.sim.fault_count
@@ -146,6 +179,7 @@ class SimRunner:
         """(simulation thread) A scene (re)loaded at sim time 0: pace and publish from there."""
         self._pacer.rebase()
         self._next_telemetry = 0.0
+        self._publish_frames()
         if self.on_scene_loaded is not None:
             self.on_scene_loaded(self.geometry())
 

@@ -22,6 +22,7 @@ from robot_sim.behaviors.ptwl import ptwl_goal
 from robot_sim.geometry import scene_geometry
 from robot_sim.params import PtwlParams
 from robot_sim.sim import Simulation
+from robot_sim.task_frames import TaskFrame, TaskFrames, unit_quaternion
 from server.client import RobotClient
 from server.models import GeometryModel
 from web.app import ConsoleApp
@@ -35,24 +36,38 @@ from web.targets import displacement_to, ptwl_target
 PORT_POSE = (np.array([0.378, 0.0, 0.27]), np.array([0.0, 0.0, 1.0, 0.0]))  # tool z down
 
 
+# Built-ins plus a task frame turned 40 degrees about (1, 1, 0): neither base nor tool axes.
+FRAMES = TaskFrames(
+    [
+        TaskFrame(
+            "tilted",
+            (0.4, 0.0, 0.3),
+            unit_quaternion(tf.SO3.exp(np.array([0.5, 0.5, 0.0])).wxyz),
+            "operator",
+            "",
+        )
+    ]
+)
+
+
 def random_port(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     """A port pose anywhere within 0.5 m, any orientation (position, wxyz)."""
     return rng.uniform(-0.5, 0.5, 3), tf.SO3.exp(rng.uniform(-2, 2, 3)).wxyz
 
 
-@pytest.mark.parametrize("frame", ["tool", "base"])
+@pytest.mark.parametrize("frame", ["tool", "base", "tilted"])
 def test_gizmo_pose_maps_back_to_the_displacement_that_reaches_it(frame: str) -> None:
     rng = np.random.default_rng(3)
     for _ in range(20):
         port = random_port(rng)
         translation, rotation = rng.uniform(-0.1, 0.1, 3), rng.uniform(-1.0, 1.0, 3)
-        target = ptwl_target(port, translation, rotation, frame)
-        back_t, back_r = displacement_to(port, target, frame)
+        target = ptwl_target(port, translation, rotation, frame, FRAMES)
+        back_t, back_r = displacement_to(port, target, frame, FRAMES)
         np.testing.assert_allclose(back_t, translation, atol=1e-9)
         np.testing.assert_allclose(back_r, rotation, atol=1e-9)
 
 
-@pytest.mark.parametrize("frame", ["tool", "base"])
+@pytest.mark.parametrize("frame", ["tool", "base", "tilted"])
 def test_console_target_is_the_robots_ptwl_goal(frame: str) -> None:
     """The contemplated/commanded marker and the robot compute the same goal (one rule, two sides)."""
     rng = np.random.default_rng(5)
@@ -60,17 +75,17 @@ def test_console_target_is_the_robots_ptwl_goal(frame: str) -> None:
         port = random_port(rng)
         translation, rotation = rng.uniform(-0.2, 0.2, 3), rng.uniform(-1.5, 1.5, 3)
         params = PtwlParams(translation=list(translation), rotation=list(rotation), frame=frame)
-        p_goal, q_goal = ptwl_goal(port[0], port[1], params)
-        p_console, q_console = ptwl_target(port, translation, rotation, frame)
+        p_goal, q_goal = ptwl_goal(port[0], port[1], params, FRAMES)
+        p_console, q_console = ptwl_target(port, translation, rotation, frame, FRAMES)
         np.testing.assert_allclose(p_console, p_goal, atol=1e-12)
         assert abs(float(np.dot(q_console, q_goal))) == pytest.approx(1.0, abs=1e-12)
 
 
 def test_tool_frame_follows_the_port_orientation() -> None:
     # Tool z points down (port rotated 180 deg about y): +10 mm along tool z is 10 mm down.
-    position, _ = ptwl_target(PORT_POSE, np.array([0.0, 0.0, 0.01]), np.zeros(3), "tool")
+    position, _ = ptwl_target(PORT_POSE, np.array([0.0, 0.0, 0.01]), np.zeros(3), "tool", FRAMES)
     np.testing.assert_allclose(position, [0.378, 0.0, 0.26], atol=1e-12)
-    position, _ = ptwl_target(PORT_POSE, np.array([0.0, 0.0, 0.01]), np.zeros(3), "base")
+    position, _ = ptwl_target(PORT_POSE, np.array([0.0, 0.0, 0.01]), np.zeros(3), "base", FRAMES)
     np.testing.assert_allclose(position, [0.378, 0.0, 0.28], atol=1e-12)
 
 

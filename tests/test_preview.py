@@ -7,6 +7,7 @@ import pytest
 from robot_sim.behaviors import ExitCondition, behavior_for
 from robot_sim.params import PtwlParams
 from robot_sim.sim import Simulation
+from robot_sim.task_frames import TaskFrame, unit_quaternion
 from web.preview import Previewer
 from web.twin import TwinPoint
 
@@ -14,7 +15,13 @@ from web.twin import TwinPoint
 def point(sim: Simulation) -> TwinPoint:
     state = sim.state()
     return TwinPoint(
-        sim.scene.name, sim.time, state.joint_positions, state.attractor, sim.controller.gains, False
+        sim.scene.name,
+        sim.time,
+        state.joint_positions,
+        state.attractor,
+        sim.controller.gains,
+        False,
+        sim.frames,
     )
 
 
@@ -31,6 +38,19 @@ def test_a_10_s_move_is_previewed_in_under_a_second_and_goes_where_the_robot_goe
     np.testing.assert_allclose(preview.port_path[-1], report.final_port.position, atol=1e-4)
     np.testing.assert_allclose(preview.attractor_path[0], robot.state().port.position, atol=0.1)  # a path
     assert len(preview.port_path) > 400  # 20 ms points over ~10 s
+
+
+def test_a_move_in_a_task_frame_previews_where_the_robot_goes() -> None:
+    """The preview uses the robot's frames as the console heard them, not the nominal scene's."""
+    robot = Simulation("free_space")
+    robot.frames.add(
+        TaskFrame("leaning", (0.4, 0.0, 0.3), unit_quaternion([0.9, 0.3, 0.2, 0.0]), "operator", "")
+    )
+    move = PtwlParams(translation=[0.0, 0.03, 0.02], frame="leaning", duration=1.5)
+    preview = Previewer().run(point(robot), move)
+    report = robot.run_behavior(behavior_for(move))
+    assert preview.exit == report.exit.value == "goal_reached"
+    np.testing.assert_allclose(preview.port_path[-1], report.final_port.position, atol=1e-4)
 
 
 def test_a_press_into_the_plate_previews_its_breach_and_peak_force() -> None:

@@ -26,6 +26,22 @@ BAD_COMMANDS = {
         422,
         ["translation", "<= 1 m"],
     ),
+    "unknown_task_frame": (
+        '{"type": "ptwl", "frame": "peg_axis"}',
+        422,
+        ["frame: unknown task frame 'peg_axis'; valid: tool, base"],
+    ),
+    "unknown_gains_frame": (
+        '{"type": "rwe", "frame": "base", "gains_frame": "x"}',
+        422,
+        ["gains_frame", "Extra inputs are not permitted"],
+    ),
+    "unknown_dither_frame": (
+        '{"type": "dither", "frame": "nowhere"}',
+        422,
+        ["frame: unknown task frame 'nowhere'"],
+    ),
+    "frame_name_not_a_name": ('{"type": "ptwl", "frame": "../tool"}', 422, ["frame", "should match pattern"]),
     "rotation_over_pi": ('{"type": "ptwl", "rotation": [0, 0, 3.5]}', 422, ["rotation", "<= 3.14159 rad"]),
     "duration_zero": ('{"type": "ptwl", "duration": 0}', 422, ["duration", "(0, 600] s"]),
     "duration_negative": ('{"type": "rwe", "duration": -2}', 422, ["duration", "(0, 600] s"]),
@@ -95,9 +111,13 @@ BAD_COMMANDS = {
     "gains_frame_unknown": (
         '{"type": "ptwl", "gains_frame": "world"}',
         422,
-        ["gains_frame", "'base' or 'tool'"],
+        ["gains_frame: unknown task frame 'world'; valid: tool, base"],
     ),
-    "rwe_frame_unknown": ('{"type": "rwe", "frame": "port"}', 422, ["frame", "'base' or 'tool'"]),
+    "rwe_frame_unknown": (
+        '{"type": "rwe", "frame": "port"}',
+        422,
+        ["frame: unknown task frame 'port'; valid: tool, base"],
+    ),
     "conical_dither_is_gone": (
         '{"type": "dither", "mode": "conical"}',
         422,

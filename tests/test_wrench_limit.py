@@ -12,6 +12,7 @@ from robot_sim.params import DitherParams, PtwlParams
 from robot_sim.presets import default_presets
 from robot_sim.scenes import sleeve_insertion_depth
 from robot_sim.sim import Simulation
+from robot_sim.task_frames import TaskFrames
 from tests.test_ptwl import GAP_TO_PLATE
 
 THRESHOLD_N = 15.0
@@ -96,10 +97,10 @@ def test_impact_warning_when_b_v_passes_the_threshold() -> None:
     medium = default_presets().stiffness_preset("medium").to_gains()
     tool_down = [0.0, 1.0, 0.0, 0.0]  # tool z = base -z
     fast = PtwlParams(translation=[0, 0, 0.1], duration=1.0, force_threshold=15.0)
-    (warning,) = impact_warnings(fast, medium, tool_down)
+    (warning,) = impact_warnings(fast, medium, tool_down, TaskFrames())
     assert "~100 N" in warning and "force_threshold 15 N" in warning and ">= 6.67 s" in warning
     slow = PtwlParams(translation=[0, 0, 0.1], duration=7.0, force_threshold=15.0)
-    assert impact_warnings(slow, medium, tool_down) == []
+    assert impact_warnings(slow, medium, tool_down, TaskFrames()) == []
     spin = PtwlParams(rotation=[0, 0, math.pi / 2], duration=1.0, torque_threshold=2.0)
-    (torque_warning,) = impact_warnings(spin, medium, tool_down)
+    (torque_warning,) = impact_warnings(spin, medium, tool_down, TaskFrames())
     assert "torque_threshold 2 N m" in torque_warning

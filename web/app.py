@@ -21,6 +21,7 @@ import viser
 from robot_sim.behaviors import BehaviorParams
 from robot_sim.gains import Gains
 from robot_sim.params import PtwlParams
+from robot_sim.task_frames import TaskFrames, frames_from_dicts
 from server.client import RobotClient, RobotError
 from server.models import GeometryModel
 from web.board import Board
@@ -99,6 +100,10 @@ class ConsoleApp:
         self.twin_worker: TwinWorker | None = None
         self._prediction: Prediction | None = None
         self.previewer = Previewer()
+        # The robot's task frames as last heard (GET /api/frames on a scene load, then its
+        # `frames` telemetry messages): what the fields offer and the checks accept.
+        self._frames_heard: list[dict[str, Any]] = []
+        self.task_frames = TaskFrames()
 
     @property
     def url(self) -> str:
@@ -135,7 +140,9 @@ class ConsoleApp:
         # The meshes go out after the panels, when the robot has answered.
         self.handshake = Handshake(self.client, local, self._met_robot)
         self.handshake.start()
-        self.feed = TelemetryFeed(self.client, self._on_state, self._on_command, self._on_link)
+        self.feed = TelemetryFeed(
+            self.client, self._on_state, self._on_command, self._on_link, self._set_frames
+        )
         self.link_poller = LinkPoller(self.robot_url, self.token, self._on_link_profile)
         if self.defaults.twin and replay is None:
             self.twin = GroundTwin(self._uplink_s)
@@ -178,8 +185,11 @@ class ConsoleApp:
             self.send,
             self.check,
             self.preview,
+            lambda: self.task_frames,
+            self.edit_frame,
         )
         desk.panel.show_scene_task(self.scene_name)
+        desk.show_frames(self._frames_heard)
         with self._lock:
             self._desks[client.client_id] = desk
 
@@ -217,7 +227,7 @@ class ConsoleApp:
         now = state["gains"] if state else None
         gains = Gains.of(now["stiffness"], now["damping"], now["frame"]) if now else None
         q_world_port = np.asarray(state["port"]["quaternion"]) if state else None
-        return check_command(behavior, params, gains, q_world_port)
+        return check_command(behavior, params, gains, q_world_port, self.task_frames)
 
     def preview(self, desk: Desk) -> None:
         """Run the desk's PTWL on a copy of the model from where the twin puts the robot now."""
@@ -268,6 +278,38 @@ class ConsoleApp:
                 self._notify(f"#{accepted.id}: check the approach", warning, "orange")
         self._after_change(view)
 
+    def edit_frame(self, desk: Desk, name: str, pose: "dict[str, list[float]] | str | None") -> None:
+        """Add a task frame at `pose` (`tool`, or a typed pose), or delete `name` (None); only the
+        operator in control, as for commands. The robot's `frames` message follows for everyone."""
+        if not self.seat.holds(desk.client_id):
+            desk.client.add_notification(
+                "Not done: you are watching", "Take control to edit frames.", color="red"
+            )
+            return
+        try:
+            if pose is None:
+                self.client.delete_frame(name)
+                heard = [f for f in self._frames_heard if f["name"] != name]
+            else:
+                added = self.client.add_frame(name, pose)
+                heard = [*self._frames_heard, added.model_dump()]
+        except (RobotError, httpx.HTTPError) as err:
+            reason = str(err.detail) if isinstance(err, RobotError) else f"{type(err).__name__}: {err}"
+            self._notify("Frame not changed", reason, "red")
+            return
+        self._set_frames(heard)  # at once: the robot's message confirms it a downlink later
+
+    def _set_frames(self, frames: list[dict[str, Any]]) -> None:
+        """The robot's task frames, as now known: the checks, the twin and every desk use them."""
+        if self._closed:
+            return
+        self._frames_heard = frames
+        self.task_frames = frames_from_dicts(frames)
+        if self.twin is not None:
+            self.twin.frames = self.task_frames
+        for desk in self.desks():
+            desk.show_frames(frames)
+
     def stop(self, client: viser.ClientHandle | None = None) -> None:
         """Anyone may stop. The bar shows it pending until the robot confirms, and a failure stays
         on screen until a STOP gets through."""
@@ -301,6 +343,8 @@ class ConsoleApp:
         """The one path that (re)draws the scene's bodies: at start, after a reset, on a new scene."""
         assert self.view is not None
         geometry = geometry or self.client.geometry()
+        if self.playback is None:  # a recording has no frames to ask for (not recorded yet)
+            self._set_frames([f.model_dump() for f in self.client.frames()])
         with self.server.atomic():
             self.view.load(geometry)
             if self.ghost is not None:

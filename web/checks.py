@@ -1,5 +1,5 @@
 """A command checked before Send, by the robot's own rules: the API's request models validate it
-(ranges, watchdog >= duration, stable gains, presets) and robot_sim.impact says whether the
+(ranges, watchdog >= duration, stable gains, presets, task frames) and robot_sim.impact says whether the
 approach would overshoot its thresholds on contact. No rule is restated here; the robot still
 checks everything again when the command arrives."""
 
@@ -12,6 +12,7 @@ from pydantic import TypeAdapter, ValidationError
 from robot_sim.gains import Gains
 from robot_sim.impact import impact_warnings
 from robot_sim.params import PtwlParams
+from robot_sim.task_frames import TaskFrames
 from server.commands import CommandParams
 from server.errors import error_detail, field_errors
 from server.models import Command
@@ -31,13 +32,20 @@ class Check:
 
 
 def check_command(
-    behavior: str, params: dict[str, Any], gains_now: Gains | None, q_world_port: np.ndarray | None
+    behavior: str,
+    params: dict[str, Any],
+    gains_now: Gains | None,
+    q_world_port: np.ndarray | None,
+    frames: TaskFrames,
 ) -> Check:
     try:
         validated = _COMMAND.validate_python({"type": behavior, **params})
     except ValidationError as err:
         return Check(errors=error_detail(field_errors(list(err.errors()))))  # type: ignore[arg-type]
+    unknown_frames = frames.unknown_errors(validated)
+    if unknown_frames:
+        return Check(errors=error_detail(field_errors(unknown_frames)))
     warnings: list[str] = []
     if isinstance(validated, PtwlParams) and q_world_port is not None and gains_now is not None:
-        warnings = impact_warnings(validated, gains_now, q_world_port)
+        warnings = impact_warnings(validated, gains_now, q_world_port, frames)
     return Check(warnings=warnings, params=validated)

@@ -7,8 +7,11 @@ from typing import Any
 import numpy as np
 import viser
 
+from robot_sim.errors import UnknownNameError
+from robot_sim.task_frames import TaskFrames
 from web.checks import Check
 from web.defaults import ConsoleDefaults
+from web.frames_view import FramesView
 from web.markers import TargetMarker
 from web.panel import Panel, preview_html
 from web.preview import PreviewResult
@@ -20,6 +23,8 @@ YELLOW = (250, 204, 21)
 SendFn = Callable[["Desk", str, dict[str, Any]], None]
 PreviewFn = Callable[["Desk"], None]
 CheckFn = Callable[[str, dict[str, Any]], Check]
+FramesFn = Callable[[], TaskFrames]
+FrameEditFn = Callable[["Desk", str, "dict[str, list[float]] | str | None"], None]
 
 
 class Desk:
@@ -35,11 +40,14 @@ class Desk:
         send: SendFn,
         check: CheckFn,
         preview: PreviewFn,
+        frames: FramesFn,
+        edit_frame: FrameEditFn,
     ) -> None:
         self.client = client
         self.name = operator_name(client.client_id) or ""
         self._seat = seat
         self._port = port
+        self._frames = frames
         self._syncing_gizmo = False
         self.panel = Panel(client.gui, defaults, stiffness_presets, dither_presets, tasks)
         scene = client.scene
@@ -53,7 +61,16 @@ class Desk:
         )
         self.gizmo = scene.add_transform_controls("/gizmo", scale=0.08, visible=False)
         self.preview_marks = PreviewMarks(scene)
+        self.frames_view = FramesView(scene)
         panel = self.panel
+        # Frames: add at the tool or a typed pose (the name typed), delete one (None: no pose).
+        panel.add_frame_at_tool.on_click(lambda _: edit_frame(self, str(panel.new_frame_name.value), "tool"))
+        panel.add_frame_typed.on_click(
+            lambda _: edit_frame(self, str(panel.new_frame_name.value), panel.typed_frame_pose())
+        )
+        panel.delete_frame.on_click(lambda _: edit_frame(self, str(panel.delete_frame_name.value), None))
+        panel.delete_frame_name.on_update(lambda _: panel.refresh_buttons())
+        panel.show_frames.on_update(lambda _: self.frames_view.set_visible(bool(panel.show_frames.value)))
         panel.take_control.on_click(lambda _: seat.take(client.client_id))
         for behavior, button in panel.sends.items():
             button.on_click(self._sender(send, behavior))
@@ -112,6 +129,15 @@ class Desk:
         holder = self._seat.holder
         self.panel.show_control(holder == self.client_id, operator_name(holder))
 
+    def show_frames(self, frames: list[dict[str, Any]]) -> None:
+        """The robot's task frames changed (or first became known): offer them, draw them, and
+        check the requests again (a frame a field names may be gone)."""
+        self.panel.show_frames_known(frames)
+        self.frames_view.show(frames)
+        for behavior in self.panel.sends:
+            self.recheck(behavior)
+        self.fields_changed()
+
     def _sender(self, send: SendFn, behavior: str) -> Callable[[Any], None]:
         return lambda _: send(self, behavior, self.params(behavior))
 
@@ -125,8 +151,7 @@ class Desk:
         self.panel.show_check(behavior, result.errors, result.warnings, watchdog)
 
     def contemplated_target(self) -> Pose | None:
-        port = self._port()
-        return ptwl_target(port, *self.panel.ptwl_values()) if port is not None else None
+        return self._target_or_none(self._port())
 
     def fields_changed(self) -> None:
         with self.client.atomic():
@@ -134,7 +159,7 @@ class Desk:
 
     def update_contemplated(self, move_gizmo: bool = False) -> None:
         port = self._port()
-        target = ptwl_target(port, *self.panel.ptwl_values()) if port is not None else None
+        target = self._target_or_none(port)
         self.contemplated.show(target, port[0] if port is not None else None)
         show = bool(self.panel.show_gizmo.value) and target is not None
         appearing = show and not self.gizmo.visible
@@ -144,10 +169,23 @@ class Desk:
             self.gizmo.position, self.gizmo.wxyz = target
             self._syncing_gizmo = False
 
+    def _target_or_none(self, port: Pose | None) -> Pose | None:
+        """Where the PTWL as typed goes; None without a port, or in a frame not known (yet)."""
+        if port is None:
+            return None
+        try:
+            return ptwl_target(port, *self.panel.ptwl_values(), self._frames())
+        except UnknownNameError:
+            return None
+
     def _gizmo_moved(self) -> None:
         port = self._port()
         if self._syncing_gizmo or port is None:
             return
         target = (np.asarray(self.gizmo.position), np.asarray(self.gizmo.wxyz))
-        translation, rotation = displacement_to(port, target, str(self.panel.frame.value))
+        try:
+            translation, rotation = displacement_to(port, target, str(self.panel.frame.value), self._frames())
+        except UnknownNameError:
+            return  # the frame went away under the gizmo: the check line says so
+
         self.panel.set_ptwl_displacement(translation, rotation)

@@ -21,8 +21,10 @@ class TelemetryFeed(Worker):
         on_state: Callable[[dict[str, Any], float], None],
         on_command: Callable[[dict[str, Any]], None],
         on_link: Callable[[str], None],
+        on_frames: Callable[[list[dict[str, Any]]], None],
     ) -> None:
         self._client = client
+        self._on_frames = on_frames
         self._on_state = on_state
         self._on_command = on_command
         self._on_link = on_link
@@ -47,6 +49,8 @@ class TelemetryFeed(Worker):
                         self._on_state(message, arrived)
                     elif message.get("type") == "command":
                         self._on_command(message)
+                    elif message.get("type") == "frames":
+                        self._on_frames(message["frames"])
                 reason = "the robot closed the telemetry stream"
             except Exception as err:  # any failure of the link: say so in plain words, then retry
                 reason = plain_reason(err)

@@ -9,6 +9,7 @@ import html
 import math
 from typing import Any
 
+import mujoco
 import numpy as np
 import viser
 
@@ -21,6 +22,11 @@ PREVIEW_HINT = (
     "run this PTWL on the ground twin, from where it puts the robot now, to its exit; nothing is sent"
 )
 STEP_HINT = "send only the first part: displacement and duration times the step (repeat to walk on)"
+BUILT_IN_FRAMES = ("tool", "base")
+PRESET_FRAME = "(the preset's)"  # no gains_frame sent: the preset's own, as the robot decides
+FRAME_HINT = "tool: the port's axes at start; base; or a task frame (Frames tab)"
+GAINS_FRAME_HINT = "the axes K and B are diagonal in; a task frame's stay put as the tool turns"
+FRAME_NAME_HINT = "letters, digits and _, starting with a letter (up to 32)"
 MONITOR_HINT = (
     "learn the friction while sliding in contact (mu |F_n| + c) and end the command 'anomaly' "
     "on a jam or a change of surface; the plate's normal is base z"
@@ -54,7 +60,7 @@ class Panel:
         with tabs.add_tab("PTWL"), gui.add_form(None) as self.forms["ptwl"]:
             self.translation = gui.add_vector3("Translation [mm]", tuple(d["translation_mm"]), step=0.1)
             self.rotation = gui.add_vector3("Rotation [deg]", tuple(d["rotation_deg"]), step=0.1)
-            self.frame = gui.add_dropdown("Frame", ("tool", "base"), initial_value=d["frame"])
+            self.frame = gui.add_dropdown("Frame", BUILT_IN_FRAMES, initial_value=d["frame"], hint=FRAME_HINT)
             self.duration = gui.add_number("Duration [s]", d["duration_s"], min=0.01, max=600.0, step=0.1)
             self.force_threshold = gui.add_number(
                 "Force threshold [N]", d["force_threshold_n"], min=0.1, step=0.5
@@ -62,22 +68,30 @@ class Panel:
             self.torque_threshold = gui.add_number(
                 "Torque threshold [N m]", d["torque_threshold_nm"], min=0.01, step=0.05
             )
-            self.position_tolerance = gui.add_number(
-                "Position tolerance [mm]", d["position_tolerance_mm"], min=0.01, step=0.1
-            )
-            self.orientation_tolerance = gui.add_number(
-                "Orientation tolerance [deg]", d["orientation_tolerance_deg"], min=0.01, step=0.1
-            )
-            self.watchdog_auto = gui.add_checkbox(
-                "Watchdog follows duration",
-                True,
-                hint="the robot's default: duration + 5 s; untick to set it",
-            )
-            self.watchdog = gui.add_number(
-                "Watchdog [s]", d["duration_s"] + 5.0, min=0.01, max=600.0, step=0.5, disabled=True
-            )
-            self.monitor = gui.add_checkbox("Force task monitor", False, hint=MONITOR_HINT)
             self.show_gizmo = gui.add_checkbox("Drag target in 3D", False)
+            # What is set once and left: folded away, so Send, Preview and Step stay in view.
+            with gui.add_folder("Tolerances, watchdog, gains frame", expand_by_default=False):
+                self.position_tolerance = gui.add_number(
+                    "Position tolerance [mm]", d["position_tolerance_mm"], min=0.01, step=0.1
+                )
+                self.orientation_tolerance = gui.add_number(
+                    "Orientation tolerance [deg]", d["orientation_tolerance_deg"], min=0.01, step=0.1
+                )
+                self.watchdog_auto = gui.add_checkbox(
+                    "Watchdog follows duration",
+                    True,
+                    hint="the robot's default: duration + 5 s; untick to set it",
+                )
+                self.watchdog = gui.add_number(
+                    "Watchdog [s]", d["duration_s"] + 5.0, min=0.01, max=600.0, step=0.5, disabled=True
+                )
+                self.gains_frame = gui.add_dropdown(
+                    "Gains frame",
+                    (PRESET_FRAME, *BUILT_IN_FRAMES),
+                    initial_value=PRESET_FRAME,
+                    hint=GAINS_FRAME_HINT,
+                )
+                self.monitor = gui.add_checkbox("Force task monitor", False, hint=MONITOR_HINT)
             self.ptwl_check = gui.add_html(_check_html("ptwl", "", []))
             self.send_ptwl = gui.add_button("Send cmd", color="blue", disabled=True)
             # IPSE's preview and step: see it run on the twin first; send it a part at a time.
@@ -90,6 +104,9 @@ class Panel:
             self.rwe_duration = gui.add_number(
                 "RWE duration [s]", defaults.rwe["duration_s"], min=0.01, max=600.0
             )
+            self.rwe_frame = gui.add_dropdown(
+                "RWE frame", BUILT_IN_FRAMES, initial_value="base", hint=FRAME_HINT
+            )
             self.rwe_check = gui.add_html(_check_html("rwe", "", []))
             self.send_rwe = gui.add_button("Send RWE", color="blue", disabled=True)
         with tabs.add_tab("Dither"), gui.add_form(None) as self.forms["dither"]:
@@ -98,7 +115,10 @@ class Panel:
             self.dither_preset = gui.add_dropdown("Dither preset", names, initial_value=first)
             self.dither_mode = gui.add_dropdown("Mode", ("torsional", "translational"))
             self.dither_direction = gui.add_dropdown("Direction", ("push", "pull"))
-            self.dither_axis = gui.add_vector3("Axis (tool frame)", (0.0, 0.0, 1.0), step=0.1)
+            self.dither_axis = gui.add_vector3("Axis", (0.0, 0.0, 1.0), step=0.1)
+            self.dither_frame = gui.add_dropdown(
+                "Axis frame", BUILT_IN_FRAMES, initial_value="tool", hint=FRAME_HINT
+            )
             self.dither_amplitude = gui.add_number(AMPLITUDE_LABELS["torsional"], 1.0, min=0.001, step=0.1)
             self.dither_frequency = gui.add_number("Frequency [Hz]", 1.0, min=0.01, max=10.0, step=0.1)
             self.dither_travel = gui.add_number("Travel [mm]", 10.0, min=0.0, max=1000.0, step=0.5)
@@ -113,6 +133,23 @@ class Panel:
             self.dither_preset.on_update(lambda _: self.fill_dither_fields())
             self.dither_mode.on_update(lambda _: self._label_amplitude())
             self.fill_dither_fields()
+        with tabs.add_tab("Frames"):  # task frames: named axes to command in (robot_sim/task_frames.py)
+            self.frames_list = gui.add_html(frames_html([]))
+            self.new_frame_name = gui.add_text("New frame name", "frame1", hint=FRAME_NAME_HINT)
+            self.add_frame_at_tool = gui.add_button(
+                "Add at tool pose",
+                color="teal",
+                disabled=True,
+                hint="the port's pose as the robot has it now",
+            )
+            self.new_frame_position = gui.add_vector3("Typed origin [mm]", (400.0, 0.0, 300.0), step=1.0)
+            self.new_frame_rotation = gui.add_vector3(
+                "Typed rotation [deg]", (0.0, 0.0, 0.0), step=1.0, hint="rotation vector from base axes"
+            )
+            self.add_frame_typed = gui.add_button("Add typed pose", color="teal", disabled=True)
+            self.delete_frame_name = gui.add_dropdown("Delete frame", ("(none)",), initial_value="(none)")
+            self.delete_frame = gui.add_button("Delete", color="red", disabled=True)
+            self.show_frames = gui.add_checkbox("Show frames in 3D", True)
         with tabs.add_tab("Tasks"):  # a task's onboard state machine, run as one command
             names = list(tasks) or ["(none)"]
             self.task = gui.add_dropdown("Task", names, initial_value=names[0])
@@ -172,14 +209,16 @@ class Panel:
                 self.watchdog_auto,
                 self.watchdog,
                 self.stiffness,
+                self.gains_frame,
                 self.monitor,
             ],
-            "rwe": [*self.rwe_axes.values(), self.rwe_duration],
+            "rwe": [*self.rwe_axes.values(), self.rwe_duration, self.rwe_frame],
             "dither": [
                 self.dither_preset,
                 self.dither_mode,
                 self.dither_direction,
                 self.dither_axis,
+                self.dither_frame,
                 self.dither_amplitude,
                 self.dither_frequency,
                 self.dither_travel,
@@ -208,7 +247,7 @@ class Panel:
     def show_control(self, mine: bool, holder: str | None) -> None:
         """Enable sending only for the client that holds control; say who does."""
         self._mine = mine
-        self._refresh_buttons()
+        self.refresh_buttons()
         self.take_control.visible = not mine
         self.control.content = _control_html(mine, holder)
 
@@ -219,12 +258,35 @@ class Panel:
         if behavior == "ptwl" and watchdog_s is not None and self.watchdog_auto.value:
             _set(self.watchdog, round(watchdog_s, 3))
         self.watchdog.disabled = bool(self.watchdog_auto.value)
-        self._refresh_buttons()
+        self.refresh_buttons()
 
-    def _refresh_buttons(self) -> None:
+    def refresh_buttons(self) -> None:
         for behavior, button in self.sends.items():
             button.disabled = not (self._mine and self._valid[behavior])
         self.send_step.disabled = self.send_ptwl.disabled  # the same PTWL, a part of it
+        # Frames change what commands mean: only the operator in control adds or deletes them.
+        self.add_frame_at_tool.disabled = self.add_frame_typed.disabled = not self._mine
+        self.delete_frame.disabled = not self._mine or self.delete_frame_name.value == "(none)"
+
+    def show_frames_known(self, frames: list[dict[str, Any]]) -> None:
+        """The robot's task frames: listed, offered in every frame field, deletable if an operator's."""
+        names = [*BUILT_IN_FRAMES, *(f["name"] for f in frames)]
+        for field in (self.frame, self.rwe_frame, self.dither_frame):
+            field.options = names  # viser keeps the value if it is still there, else takes the first
+        self.gains_frame.options = [PRESET_FRAME, *names]
+        deletable = [f["name"] for f in frames if f["source"] == "operator"] or ["(none)"]
+        self.delete_frame_name.options = deletable
+        self.frames_list.content = frames_html(frames)
+        self.refresh_buttons()
+
+    def typed_frame_pose(self) -> dict[str, list[float]]:
+        """The typed pose in the API's units: origin [m], axes as a quaternion from the rotation vector."""
+        quaternion = np.array([1.0, 0.0, 0.0, 0.0])
+        mujoco.mju_quatIntegrate(
+            quaternion, np.radians(np.asarray(self.new_frame_rotation.value, dtype=float)), 1.0
+        )
+        position = np.asarray(self.new_frame_position.value, dtype=float) / 1000.0
+        return {"position": position.tolist(), "quaternion": quaternion.tolist()}
 
     def _stiffness_html(self) -> str:
         preset = self.stiffness_presets[str(self.stiffness.value)]
@@ -269,6 +331,9 @@ class Panel:
             "orientation_tolerance": math.radians(float(self.orientation_tolerance.value)),
             **({} if self.watchdog_auto.value else {"watchdog": float(self.watchdog.value)}),
             "preset": str(self.stiffness.value),
+            **(
+                {} if self.gains_frame.value == PRESET_FRAME else {"gains_frame": str(self.gains_frame.value)}
+            ),
             **({"monitor": {}} if self.monitor.value else {}),  # the robot's default settings
         }
 
@@ -296,6 +361,7 @@ class Panel:
         return {
             "axes": [a for a, box in self.rwe_axes.items() if box.value],
             "duration": float(self.rwe_duration.value),
+            "frame": str(self.rwe_frame.value),
         }
 
     def fill_dither_fields(self) -> None:
@@ -324,6 +390,7 @@ class Panel:
             "mode": str(self.dither_mode.value),
             "direction": str(self.dither_direction.value),
             "axis": list(self.dither_axis.value),
+            "frame": str(self.dither_frame.value),
             "amplitude": math.radians(amplitude) if torsional else amplitude / 1000.0,
             "frequency": float(self.dither_frequency.value),
             "travel": float(self.dither_travel.value) / 1000.0,
@@ -388,6 +455,18 @@ def _check_html(behavior: str, errors: str, warnings: list[str]) -> str:
         f'<div id="ptwl-check-{behavior}" data-valid="{int(not errors)}" data-warnings="{len(warnings)}" '
         f'style="font-size:0.8em;color:{color};padding:0 4px">{html.escape(body)}</div>'
     )
+
+
+def frames_html(frames: list[dict[str, Any]]) -> str:
+    """The task frames the robot has, each with where it came from."""
+    names = ",".join(f["name"] for f in frames)
+    rows = "".join(
+        f"<li><b>{html.escape(f['name'])}</b> "
+        f"({html.escape(f['source'])}: {html.escape(f['defined_by'])})</li>"
+        for f in frames
+    )
+    body = f"<ul style='margin:0;padding-left:16px'>{rows}</ul>" if frames else "only tool and base"
+    return f'<div id="ptwl-frames" data-names="{html.escape(names)}" style="font-size:0.85em">{body}</div>'
 
 
 def preview_html(result: Any, note: str = "no preview yet") -> str:

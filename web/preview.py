@@ -41,6 +41,7 @@ class Previewer:
             sim = self._sims.get(start.scene)
             if sim is None:
                 sim = self._sims[start.scene] = Simulation(start.scene)
+            sim.frames = start.frames
             sim.sync_to(start.sim_time, start.joint_positions, start.attractor, start.gains)
             sim.start(behavior_for(params))
             ctl = sim.controller

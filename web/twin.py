@@ -28,11 +28,13 @@ import numpy as np
 
 from robot_sim.behaviors import BehaviorParams, behavior_for
 from robot_sim.behaviors.base import Pose
+from robot_sim.errors import UnknownNameError
 from robot_sim.gains import Gains
 from robot_sim.geometry import body_poses, moving_bodies
 from robot_sim.params import PtwlParams
 from robot_sim.pose_math import rotvec_from_to
 from robot_sim.sim import Simulation
+from robot_sim.task_frames import TaskFrames
 
 RESYNC_S = 0.5  # [s] wall time between restarts from the latest telemetry
 RECORD_S = 0.01  # [s] sim time between recorded predictions
@@ -61,6 +63,7 @@ class TwinPoint:
     attractor: Pose
     gains: Gains
     busy: bool  # a command still runs or waits in the twin
+    frames: TaskFrames  # the robot's, as this console knows them
 
 
 @dataclass(frozen=True)
@@ -119,6 +122,9 @@ class GroundTwin:
         self.latest: Prediction | None = None
         self.point: TwinPoint | None = None
         self.errors: deque[tuple[float, float]] = deque()  # (arrival wall, |error| [m])
+        # The robot's task frames as the console last heard (its scene's are where the seed put
+        # the fixtures, which the twin's nominal scene does not know).
+        self.frames = TaskFrames()
 
     # ----------------------------------------------------------- inputs (any thread)
     def on_state(self, state: dict[str, Any], arrived_wall: float) -> float | None:
@@ -197,6 +203,7 @@ class GroundTwin:
             state_now.attractor,
             ctl.gains,
             self.sim.behavior is not None or bool(self._queue),
+            self.frames,
         )
         return self.latest
 
@@ -207,12 +214,11 @@ class GroundTwin:
         assert sim is not None
         t_state, sent_at = float(state["sim_time"]), float(state["sent_at"])
         gains = state["gains"]
-        sim.sync_to(
-            t_state,
-            state["joint_positions"],
-            _pose(state["attractor"]),
-            Gains.of(gains["stiffness"], gains["damping"], gains["frame"]),
-        )
+        sim.frames = self.frames
+        gains_now = Gains.of(gains["stiffness"], gains["damping"], gains["frame"])
+        if gains_now.frame not in self.frames.names():  # a frame whose news is still on the link
+            gains_now = gains_now.in_frame("base")
+        sim.sync_to(t_state, state["joint_positions"], _pose(state["attractor"]), gains_now)
         self._queue.clear()
         if running is not None and running.get("started_at") is not None:
             elapsed_s = sent_at - float(running["started_at"])  # both the robot's wall clock
@@ -228,11 +234,20 @@ class GroundTwin:
         assert sim is not None
         while sim.time < target_s:
             if sim.behavior is None and self._queue and sim.time >= self._queue[0][1]:
-                sim.start(behavior_for(self._queue.popleft()[0]))
+                self._start(sim, self._queue.popleft()[0])
             sim.step()
             # What the ghost shows, every RECORD_S: a restart's replay up to there is not recorded.
             if record and (not self._times or sim.time >= self._times[-1] + RECORD_S):
                 self._record(sim.time, sim.controller.p_world_port.copy())
+
+    @staticmethod
+    def _start(sim: Simulation, params: BehaviorParams) -> None:
+        """Start a command in the twin; one naming a frame the console has not heard of yet
+        (its news is still on the link) is left out: the twin holds, and its error readout shows."""
+        try:
+            sim.start(behavior_for(params))
+        except UnknownNameError:
+            sim.behavior = None
 
     def _record(self, sim_time: float, port: np.ndarray) -> None:
         with self._lock:

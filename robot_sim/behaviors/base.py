@@ -14,6 +14,7 @@ import numpy as np
 
 from robot_sim.controller import AdmittanceController
 from robot_sim.params import MonitorSpec, OnBreach
+from robot_sim.task_frames import TaskFrames
 
 
 class ExitCondition(StrEnum):
@@ -89,7 +90,7 @@ class Behavior(ABC):
     kind: str
 
     @abstractmethod
-    def start(self, ctl: AdmittanceController, t: float) -> None:
+    def start(self, ctl: AdmittanceController, t: float, frames: TaskFrames) -> None:
         """Take the port and attractor poses at start and set up the attractor's motion."""
 
     @abstractmethod

@@ -1,6 +1,7 @@
 """Dither (paper 2.2.3): wiggle the attractor while it advances or retreats along an axis.
 
-`axis` is given in the tool frame and fixed in base axes at the start. The attractor's centre
+`axis` is given in `frame` (the tool's, by default; or base, or a task frame) and fixed in base
+axes at the start. The attractor's centre
 moves from where the attractor is at start by `travel` along the axis (push: forward, pull:
 backward) over `duration`, and around that centre:
 
@@ -24,7 +25,8 @@ import numpy as np
 from robot_sim.behaviors.base import Behavior, ExitCondition, end_breach, wrench_breached
 from robot_sim.controller import AdmittanceController
 from robot_sim.params import DitherParams, MonitorSpec
-from robot_sim.pose_math import rotate_world, rotation_matrix
+from robot_sim.pose_math import rotate_world
+from robot_sim.task_frames import TaskFrames
 
 TRAVEL_TOLERANCE_M = 0.001
 
@@ -56,13 +58,13 @@ class Dither(Behavior):
     def monitor_spec(self) -> MonitorSpec | None:
         return self.params.monitor
 
-    def start(self, ctl: AdmittanceController, t: float) -> None:
+    def start(self, ctl: AdmittanceController, t: float, frames: TaskFrames) -> None:
         self._t0 = t
         self._p_world_port_start[:] = ctl.p_world_port
         self._p_world_from[:] = ctl.p_world_attractor
         self._q_world_from[:] = ctl.q_world_attractor
-        axis_tool = np.asarray(self.params.axis, dtype=float)  # unit length (params.py)
-        self.axis_world[:] = rotation_matrix(ctl.q_world_port) @ axis_tool
+        axis_in_frame = np.asarray(self.params.axis, dtype=float)  # unit length (params.py)
+        self.axis_world[:] = frames.axes_world(self.params.frame, ctl.q_world_port) @ axis_in_frame
         self._e1[:], self._e2[:] = perpendicular_basis(self.axis_world)
 
     def progress(self, ctl: AdmittanceController) -> float:

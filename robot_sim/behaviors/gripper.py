@@ -6,6 +6,7 @@ detail says what the jaws hold."""
 from robot_sim.behaviors.base import Behavior, ExitCondition
 from robot_sim.controller import AdmittanceController
 from robot_sim.params import GripperParams
+from robot_sim.task_frames import TaskFrames
 
 
 class Gripper(Behavior):
@@ -15,7 +16,7 @@ class Gripper(Behavior):
         self.params = params
         self._t0 = 0.0
 
-    def start(self, ctl: AdmittanceController, t: float) -> None:
+    def start(self, ctl: AdmittanceController, t: float, frames: TaskFrames) -> None:
         self._t0 = t  # the attractor stays where it is: a held force survives the grasp
 
     def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:

@@ -9,7 +9,8 @@ once: the paper's "stuck" that RWE relieves (2.2.2).
 Exits: `wrench_breach` when |f| or |tau| passes its threshold (checked first: safety before
 success; then `on_breach` says where the attractor goes), `goal_reached` when the port is
 within both tolerances of the goal, `timeout` at the watchdog. Displacements are in the port's
-frame at start (`tool`) or base axes (`base`); both rotate about the port's origin.
+frame at start (`tool`), base axes (`base`) or a task frame's axes; all rotate about the port's
+origin.
 """
 
 import mujoco
@@ -18,19 +19,17 @@ import numpy as np
 from robot_sim.behaviors.base import Behavior, ExitCondition, Pose, end_breach, wrench_breached
 from robot_sim.controller import AdmittanceController
 from robot_sim.params import MonitorSpec, PtwlParams
-from robot_sim.pose_math import angle_between, rotate_world, rotation_matrix, rotvec_from_to
+from robot_sim.pose_math import angle_between, rotate_world, rotvec_from_to
+from robot_sim.task_frames import TaskFrames
 
 
 def ptwl_goal(
-    p_world_port: np.ndarray, q_world_port: np.ndarray, params: PtwlParams
+    p_world_port: np.ndarray, q_world_port: np.ndarray, params: PtwlParams, frames: TaskFrames
 ) -> tuple[np.ndarray, np.ndarray]:
     """(position [m], quaternion wxyz) of the goal: port (+) displacement, base frame."""
-    translation = np.asarray(params.translation, dtype=float)
-    rotation = np.asarray(params.rotation, dtype=float)
-    if params.frame == "tool":
-        R_world_port = rotation_matrix(q_world_port)
-        translation = R_world_port @ translation
-        rotation = R_world_port @ rotation
+    R_world_axes = frames.axes_world(params.frame, q_world_port)
+    translation = R_world_axes @ np.asarray(params.translation, dtype=float)
+    rotation = R_world_axes @ np.asarray(params.rotation, dtype=float)
     q_goal = np.zeros(4)
     rotate_world(q_goal, np.asarray(q_world_port, dtype=float), rotation, 1.0, np.zeros(4))
     return np.asarray(p_world_port, dtype=float) + translation, q_goal
@@ -56,11 +55,11 @@ class Ptwl(Behavior):
     def monitor_spec(self) -> MonitorSpec | None:
         return self.params.monitor
 
-    def start(self, ctl: AdmittanceController, t: float) -> None:
+    def start(self, ctl: AdmittanceController, t: float, frames: TaskFrames) -> None:
         p = self.params
-        ctl.set_gains(p.gains(ctl.gains))
+        ctl.set_gains(frames.resolve_gains(p.gains(ctl.gains)))
         self._t0 = t
-        goal = ptwl_goal(ctl.p_world_port, ctl.q_world_port, p)
+        goal = ptwl_goal(ctl.p_world_port, ctl.q_world_port, p, frames)
         self.p_world_goal[:], self.q_world_goal[:] = goal
         self._p_world_from[:] = ctl.p_world_attractor
         self._q_world_from[:] = ctl.q_world_attractor

@@ -4,7 +4,8 @@ Every tick the attractor is put back on the port along the selected axes, so the
 wrench there is zero and only the sensed wrench drives the port: contact forces relax. On the
 other axes the stretch held at the start is kept (the attractor moves with the port), so e.g.
 an insertion force along z survives an RWE on x, y (the paper's variant, 2.3.5). The axes are
-base axes, or the port's axes at start with `frame: tool` (keep the force along a tilted tool).
+base axes, the port's axes at start with `frame: tool` (keep the force along a tilted tool), or
+a task frame's (relieve across a peg's axis, keep the push along it).
 
 After `duration` it ends `completed` if the wrench on the selected axes is below the residuals,
 else `timeout` (the environment still pushes: the operator should know).
@@ -17,7 +18,8 @@ import numpy as np
 from robot_sim.behaviors.base import Behavior, ExitCondition
 from robot_sim.controller import AdmittanceController
 from robot_sim.params import RweParams
-from robot_sim.pose_math import rotation_matrix, turn6
+from robot_sim.pose_math import turn6
+from robot_sim.task_frames import TaskFrames
 
 
 class Rwe(Behavior):
@@ -30,11 +32,10 @@ class Rwe(Behavior):
         self._R_world_axes = np.eye(3)
         self._t0 = 0.0
 
-    def start(self, ctl: AdmittanceController, t: float) -> None:
+    def start(self, ctl: AdmittanceController, t: float, frames: TaskFrames) -> None:
         self._t0 = t
         ctl.measure_stretch()
-        if self.params.frame == "tool":
-            self._R_world_axes = rotation_matrix(ctl.q_world_port)
+        self._R_world_axes = frames.axes_world(self.params.frame, ctl.q_world_port)
         stretch_axes = turn6(self._R_world_axes.T, ctl.stretch_world())
         self._kept_stretch[:] = turn6(self._R_world_axes, np.where(self._mask, 0.0, stretch_axes))
         ctl.place_attractor_from_port(self._kept_stretch)

@@ -61,11 +61,15 @@ async def submit_command(
     if isinstance(params, GripperParams) and runner.sim.scene.gripper is None:
         message = f"the {runner.sim.scene.name} scene's tool has no gripper"
         raise RequestValidationError([{"loc": ("body", "type"), "msg": message, "type": "value_error"}])
+    frames = runner.sim.frames
+    unknown_frames = frames.unknown_errors(params)
+    if unknown_frames:
+        raise RequestValidationError(unknown_frames)
     record = book.submit(params, sender)
     warnings: list[str] = []
     if isinstance(params, PtwlParams):
         q_world_port = runner.latest_state["port"]["quaternion"]
-        warnings = impact_warnings(params, runner.sim.controller.gains, q_world_port)
+        warnings = impact_warnings(params, runner.sim.controller.gains, q_world_port, frames)
     return CommandAccepted(id=record.id, instance=record.instance, warnings=warnings)
 
 

@@ -1,0 +1,45 @@
+"""The task frames in one browser's 3D view: each as red/green/blue axes (x, y, z) with its name,
+so an operator sees which way "z in peg_axis" goes before sending a move in it."""
+
+from typing import Any
+
+import viser
+
+AXES_LENGTH_M = 0.05
+AXES_RADIUS_M = 0.002
+LABEL_OFFSET_M = (0.0, 0.0, AXES_LENGTH_M + 0.008)  # above the z axis' tip, in the frame
+
+
+class FramesView:
+    def __init__(self, scene: viser.SceneApi) -> None:
+        self._scene = scene
+        self._drawn: dict[str, tuple[viser.FrameHandle, viser.LabelHandle]] = {}
+        self._visible = True
+
+    def show(self, frames: list[dict[str, Any]]) -> None:
+        """Draw exactly these frames (as the API lists them); gone ones are removed."""
+        wanted = {f["name"]: f for f in frames}
+        for name in [n for n in self._drawn if n not in wanted]:
+            for handle in self._drawn.pop(name):
+                handle.remove()
+        for name, frame in wanted.items():
+            pose = frame["pose"]
+            if name not in self._drawn:
+                axes = self._scene.add_frame(
+                    f"/task_frames/{name}",
+                    axes_length=AXES_LENGTH_M,
+                    axes_radius=AXES_RADIUS_M,
+                    origin_radius=2 * AXES_RADIUS_M,
+                    visible=self._visible,
+                )
+                label = self._scene.add_label(
+                    f"/task_frames/{name}/label", name, position=LABEL_OFFSET_M, anchor="bottom-center"
+                )
+                self._drawn[name] = (axes, label)
+            axes = self._drawn[name][0]
+            axes.position, axes.wxyz = pose["position"], pose["quaternion"]
+
+    def set_visible(self, visible: bool) -> None:
+        self._visible = visible
+        for axes, _ in self._drawn.values():
+            axes.visible = visible  # the label is its child: it goes with it
