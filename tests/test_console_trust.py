@@ -481,3 +481,87 @@ def test_the_ghost_moves_on_send_and_says_how_far_off_it_was(browser, stack, cal
     page.wait_for_timeout(500)
     assert prediction(page, "max-mm") != "" and float(prediction(page, "max-mm")) < 2.0
     page.close()
+
+
+def red_pixels(page) -> int:  # type: ignore[no-untyped-def]
+    """A frame's x axis (viser's axes: x red, y green, z blue); the arm's orange is ~25 degrees."""
+    view = view_hsv(page)[:480]
+    return pixels_of_hue(view, 0.0, 10.0, min_saturation=0.6) + pixels_of_hue(view, 350.0, 360.0, 0.6)
+
+
+def frame_names(page) -> list[str]:  # type: ignore[no-untyped-def]
+    names = page.locator("#ptwl-frames").get_attribute("data-names") or ""
+    return [n for n in names.split(",") if n]
+
+
+def test_task_frames_are_listed_drawn_made_and_commanded_in(browser, stack, calm) -> None:  # type: ignore[no-untyped-def]
+    """Issue 14's task frames: the scene's own is listed and drawn in 3D; an operator types a
+    frame turned 90 degrees about x, and a PTWL's +20 mm along its z goes 20 mm along base -y."""
+    robot, _, console = stack
+    httpx.post(robot.url + "/api/scene", json={"name": "surface"}).raise_for_status()
+    page = open_console(browser, console.url)
+    page.get_by_role("tab", name="Frames").click()
+    page.wait_for_function("document.querySelector('#ptwl-frames')?.dataset.names === 'plate_normal'")
+    page.wait_for_timeout(500)
+    shown = red_pixels(page)
+    page.get_by_text("Show frames in 3D").click()
+    page.wait_for_timeout(500)
+    hidden = red_pixels(page)
+    assert shown > hidden + 20, (shown, hidden)  # the plate's normal, drawn on its top face
+    page.get_by_text("Show frames in 3D").click()
+
+    name = inputs_for(page, "New frame name").first
+    name.fill("slanted")
+    name.press("Tab")
+    page.wait_for_timeout(200)  # a typist's pause: viser sends one field change per 50 ms, the latest
+    set_fields(page, "Typed rotation [deg]", 90, 0, 0)
+    page.wait_for_timeout(200)
+    page.get_by_role("button", name="Add typed pose").click()
+    page.wait_for_function("document.querySelector('#ptwl-frames')?.dataset.names === 'plate_normal,slanted'")
+    assert [f["name"] for f in httpx.get(robot.url + "/api/frames").json()] == ["plate_normal", "slanted"]
+
+    page.get_by_role("tab", name="PTWL").click()
+    inputs_for(page, "Frame").first.click()
+    page.get_by_role("option", name="slanted").click()
+    set_fields(page, "Translation [mm]", 0, 0, 20)
+    x0, y0, z0 = port_mm(page)
+    before = send(page, "Send cmd")
+    wait_status(page, "goal_reached", after=before)
+    page.wait_for_timeout(300)
+    x1, y1, z1 = port_mm(page)
+    assert y1 - y0 == pytest.approx(-20.0, abs=2.5) and abs(z1 - z0) < 2.5 and abs(x1 - x0) < 2.5
+    assert httpx.get(robot.url + "/api/commands").json()[-1]["params"]["frame"] == "slanted"
+
+    page.get_by_role("tab", name="Frames").click()
+    inputs_for(page, "Delete frame").first.click()
+    page.get_by_role("option", name="slanted").click()
+    page.get_by_role("button", name="Delete").click()
+    page.wait_for_function("document.querySelector('#ptwl-frames')?.dataset.names === 'plate_normal'")
+    assert [f["name"] for f in httpx.get(robot.url + "/api/frames").json()] == ["plate_normal"]
+    page.close()
+
+
+def test_preview_then_send_a_step(browser, stack, calm) -> None:  # type: ignore[no-untyped-def]
+    """IPSE's preview and step: Preview runs the typed PTWL on the twin and says how it ends,
+    sending nothing; Send step sends its first 25 %, and the robot goes a quarter of the way."""
+    robot, _, console = stack
+    page = open_console(browser, console.url)
+    inputs_for(page, "Frame").first.click()
+    page.get_by_role("option", name="base").click()
+    set_fields(page, "Translation [mm]", 0, 40, 0)
+    page.wait_for_timeout(200)
+    sent_before = len(httpx.get(robot.url + "/api/commands").json())
+    page.get_by_role("button", name="Preview").click()
+    page.wait_for_function("document.querySelector('#ptwl-preview')?.dataset.exit === 'goal_reached'")
+    preview = page.locator("#ptwl-preview")
+    assert 2.0 < float(preview.get_attribute("data-duration") or "nan") < 3.5  # 2 s travel, then settling
+    assert float(preview.get_attribute("data-compute-s") or "nan") < 1.0
+    assert len(httpx.get(robot.url + "/api/commands").json()) == sent_before  # nothing was sent
+    y0 = port_mm(page)[1]
+    before = send(page, "Send step")
+    wait_status(page, "goal_reached", after=before)
+    page.wait_for_timeout(300)
+    step = httpx.get(robot.url + "/api/commands").json()[-1]["params"]
+    assert step["translation"] == pytest.approx([0.0, 0.010, 0.0], abs=1e-9)  # 25 % of 40 mm
+    assert port_mm(page)[1] - y0 == pytest.approx(10.0, abs=2.5)
+    page.close()

@@ -10,7 +10,10 @@ import pytest
 from websockets.sync.client import connect
 
 from ptwl.launcher import ServiceProcess
+from robot_sim.params import PtwlParams
+from robot_sim.task_frames import TaskFrame, TaskFrames
 from server.client import RobotClient
+from server.commands import CommandBook
 
 QUARTER_TURN_ABOUT_X = [math.cos(math.pi / 4), math.sin(math.pi / 4), 0.0, 0.0]  # z -> base -y
 
@@ -106,3 +109,18 @@ def test_telemetry_announces_frames(robot: RobotClient) -> None:
         else:
             pytest.fail("no frames message")
     assert [f["name"] for f in message["frames"]] == ["heard"]
+
+
+def test_a_command_whose_frame_is_gone_at_its_turn_ends_aborted_and_the_next_runs() -> None:
+    """The start gate (for a frame lost between the check and the start, e.g. in a reset): the
+    command ends `aborted` unstarted, saying why, and the queue goes on."""
+    frames = TaskFrames([TaskFrame("brief", (0.4, 0.0, 0.3), (1.0, 0.0, 0.0, 0.0), "operator", "typed pose")])
+    book = CommandBook(queue_max=8, history_max=100)
+    gone = book.submit(PtwlParams(frame="brief"))
+    fine = book.submit(PtwlParams(frame="base"))
+    frames.remove("brief", [])
+    started = book.start_next(lambda record: None, 0.0, frames.missing_reason)
+    assert started is not None and started.id == fine.id
+    record = book.get(gone.id)
+    assert record is not None and record.exit == "aborted" and record.started_at is None
+    assert "its task frame is gone (frame 'brief')" in record.detail

@@ -8,6 +8,7 @@ import pytest
 from robot_sim.behaviors import behavior_for
 from robot_sim.params import PtwlParams
 from robot_sim.sim import Simulation
+from robot_sim.task_frames import TaskFrame, unit_quaternion
 from web.twin import remaining_ptwl
 from web.twin_trial import free_space_moves, run_trial
 
@@ -36,6 +37,17 @@ def test_a_send_moves_the_prediction_within_0_1_s() -> None:
     move = PtwlParams(translation=[0, 0.05, 0], frame="base", duration=2.0)
     result = run_trial(Simulation("free_space"), 3.0, [(2.05, move)], 4.0)
     assert len(result.send_to_move_s) == 1 and result.send_to_move_s[0] <= 0.1
+
+
+def test_a_move_in_an_operators_task_frame_is_predicted() -> None:
+    """The twin runs commands in the robot's task frames as the console heard them."""
+    robot = Simulation("free_space")
+    robot.frames.add(
+        TaskFrame("leaning", (0.4, 0.0, 0.3), unit_quaternion([0.9, 0.3, 0.2, 0.0]), "operator", "")
+    )
+    move = PtwlParams(translation=[0.0, 0.04, 0.02], frame="leaning", duration=2.0)
+    result = run_trial(robot, 3.0, [(1.0, move)], 6.0)
+    assert result.delayed_max_mm > 20.0 and result.max_mm < 2.0
 
 
 def test_a_misaligned_fixture_shows_in_the_prediction_error() -> None:

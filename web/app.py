@@ -103,6 +103,7 @@ class ConsoleApp:
         # The robot's task frames as last heard (GET /api/frames on a scene load, then its
         # `frames` telemetry messages): what the fields offer and the checks accept.
         self._frames_heard: list[dict[str, Any]] = []
+        self._frames_lock = threading.RLock()
         self.task_frames = TaskFrames()
 
     @property
@@ -189,7 +190,8 @@ class ConsoleApp:
             self.edit_frame,
         )
         desk.panel.show_scene_task(self.scene_name)
-        desk.show_frames(self._frames_heard)
+        with self._frames_lock:
+            desk.show_frames(self._frames_heard)
         with self._lock:
             self._desks[client.client_id] = desk
 
@@ -287,28 +289,28 @@ class ConsoleApp:
             )
             return
         try:
-            if pose is None:
-                self.client.delete_frame(name)
-                heard = [f for f in self._frames_heard if f["name"] != name]
-            else:
-                added = self.client.add_frame(name, pose)
-                heard = [*self._frames_heard, added.model_dump()]
+            changed = self.client.delete_frame(name) if pose is None else self.client.add_frame(name, pose)
         except (RobotError, httpx.HTTPError) as err:
             reason = str(err.detail) if isinstance(err, RobotError) else f"{type(err).__name__}: {err}"
             self._notify("Frame not changed", reason, "red")
             return
-        self._set_frames(heard)  # at once: the robot's message confirms it a downlink later
+        with self._frames_lock:  # the robot's `frames` message may have come first: one entry a name
+            heard = [f for f in self._frames_heard if f["name"] != changed.name]
+            if pose is not None:
+                heard.append(changed.model_dump())
+            self._set_frames(heard)  # at once: the robot's message confirms it a downlink later
 
     def _set_frames(self, frames: list[dict[str, Any]]) -> None:
         """The robot's task frames, as now known: the checks, the twin and every desk use them."""
-        if self._closed:
-            return
-        self._frames_heard = frames
-        self.task_frames = frames_from_dicts(frames)
-        if self.twin is not None:
-            self.twin.frames = self.task_frames
-        for desk in self.desks():
-            desk.show_frames(frames)
+        with self._frames_lock:  # the feed's thread and a desk's click may both bring news
+            if self._closed:
+                return
+            self._frames_heard = frames
+            self.task_frames = frames_from_dicts(frames)
+            if self.twin is not None:
+                self.twin.frames = self.task_frames
+            for desk in self.desks():
+                desk.show_frames(frames)
 
     def stop(self, client: viser.ClientHandle | None = None) -> None:
         """Anyone may stop. The bar shows it pending until the robot confirms, and a failure stays

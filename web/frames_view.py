@@ -5,8 +5,8 @@ from typing import Any
 
 import viser
 
-AXES_LENGTH_M = 0.05
-AXES_RADIUS_M = 0.002
+AXES_LENGTH_M = 0.08  # longer than the markers' own axes (0.04 m): told apart at a glance
+AXES_RADIUS_M = 0.003
 LABEL_OFFSET_M = (0.0, 0.0, AXES_LENGTH_M + 0.008)  # above the z axis' tip, in the frame
 
 

@@ -270,7 +270,7 @@ class Panel:
 
     def show_frames_known(self, frames: list[dict[str, Any]]) -> None:
         """The robot's task frames: listed, offered in every frame field, deletable if an operator's."""
-        names = [*BUILT_IN_FRAMES, *(f["name"] for f in frames)]
+        names = list(dict.fromkeys([*BUILT_IN_FRAMES, *(f["name"] for f in frames)]))  # Mantine: no repeats
         for field in (self.frame, self.rwe_frame, self.dither_frame):
             field.options = names  # viser keeps the value if it is still there, else takes the first
         self.gains_frame.options = [PRESET_FRAME, *names]

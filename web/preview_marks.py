@@ -8,6 +8,7 @@ from web.preview import PreviewResult
 
 ORANGE = (247, 103, 7)
 CYAN = (21, 170, 191)
+MAX_SEGMENTS = 24
 
 
 class PreviewMarks:
@@ -33,7 +34,10 @@ class PreviewMarks:
 
 
 def _segments(path: np.ndarray) -> np.ndarray:
-    """(n, 3) points as (n - 1, 2, 3) segments (one point: a zero-length one)."""
+    """(n, 3) points as at most MAX_SEGMENTS segments, (m, 2, 3), ends kept (one point: a zero-length
+    one). Thick lines cost the browser per segment every frame: a 10 s path at 20 ms is 500."""
     if len(path) < 2:
         path = np.vstack([path, path])
+    if len(path) > MAX_SEGMENTS + 1:
+        path = path[np.linspace(0, len(path) - 1, MAX_SEGMENTS + 1).round().astype(int)]
     return np.stack([path[:-1], path[1:]], axis=1).astype(np.float32)

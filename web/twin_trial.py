@@ -15,6 +15,7 @@ import numpy as np
 from robot_sim.behaviors import BehaviorParams, behavior_for
 from robot_sim.params import PtwlParams
 from robot_sim.sim import Simulation
+from robot_sim.task_frames import TaskFrames
 from robot_sim.telemetry import state_fields
 from web.twin import GroundTwin, Sent
 
@@ -58,6 +59,7 @@ def run_trial(
     `rtt_s` evenly. Returns every prediction error the console would have shown."""
     up_s = down_s = rtt_s / 2.0
     twin = GroundTwin(uplink_s=lambda: up_s)
+    twin.frames = TaskFrames(robot.frames.all())  # as the console heard them (GET /api/frames)
     to_robot: deque[tuple[float, int, BehaviorParams]] = deque()  # (arrival wall, id, params)
     to_console: deque[tuple[float, str, dict[str, Any]]] = deque()  # (arrival wall, kind, message)
     robot_queue: deque[tuple[int, BehaviorParams]] = deque()
