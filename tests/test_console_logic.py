@@ -29,6 +29,7 @@ from web.app import ConsoleApp
 from web.desk import Desk
 from web.handshake import Catalog
 from web.history import CommandHistory
+from web.preview_marks import MAX_SEGMENTS
 from web.robot_view import FIXTURE_OPACITY
 from web.status_bar import _task_html, staleness
 from web.targets import displacement_to, ptwl_target
@@ -562,7 +563,11 @@ def test_preview_says_how_a_move_ends_and_step_sends_its_first_part(
         compute_s = float(shown.split('data-compute-s="')[1].split('"')[0])
         duration_s = float(shown.split('data-duration="')[1].split('"')[0])
         assert compute_s < 1.0 and duration_s == pytest.approx(10.0, abs=0.6)
-        assert desk.preview_marks.port.visible and len(desk.preview_marks.port.points) > 400
+        drawn = desk.preview_marks.port.points  # the 10 s path, in at most MAX_SEGMENTS segments
+        assert desk.preview_marks.port.visible and len(drawn) == MAX_SEGMENTS
+        port = console._port()
+        assert port is not None  # the path ends where the move goes: 40 mm in y, 20 mm in z
+        np.testing.assert_allclose(drawn[-1][1], port[0] + [0.0, 0.040, 0.020], atol=0.0025)
         console.send(desk, "ptwl", desk.panel.step_params())
         step = robot.commands(limit=1)[-1]
     assert step.params["translation"] == pytest.approx([0.0, 0.010, 0.005])

@@ -83,6 +83,8 @@ def test_the_document_says_what_main_left_out(stack: tuple[ServiceProcess, Servi
     for behavior in ("PtwlParams", "RweParams", "DitherParams", "StateMachineParams"):
         assert "type" in schemas[behavior]["required"], behavior
     assert schemas["SceneRequest"]["properties"]["name"]["enum"] == list(SCENES)
+    seed = schemas["SceneRequest"]["properties"]["seed"]["anyOf"][0]  # JSON Schema's words, not pydantic's
+    assert seed["minimum"] == 0 and seed["maximum"] == 2**32 - 1 and "ge" not in seed
     assert schemas["PtwlParams"]["properties"]["force_threshold"]["maximum"] == 500.0
     post = document["paths"]["/api/commands"]["post"]["responses"]
     assert {"202", "400", "401", "403", "413", "422", "429"} <= set(post)

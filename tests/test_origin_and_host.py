@@ -76,18 +76,20 @@ def test_telemetry_socket_refuses_a_foreign_origin(stack: tuple[ServiceProcess, 
 
 
 @pytest.mark.parametrize("through", ["robot", "link"])
-@pytest.mark.parametrize("path", ["/api/stop", "/api/scene", "/api/commands"])
+@pytest.mark.parametrize("path", ["/api/stop", "/api/scene", "/api/commands", "/api/frames"])
 def test_no_cors_post_from_another_origin_changes_nothing(
     stack: tuple[ServiceProcess, ...], through: str, path: str
 ) -> None:
     """What `fetch(url, {method: "POST", mode: "no-cors"})` sends: a text/plain body and Origin."""
     base = stack[0].url if through == "robot" else stack[1].url
     client, running = busy(base)
-    body = '{"type": "rwe"}' if path == "/api/commands" else '{"name": "surface"}'
+    bodies = {"/api/commands": '{"type": "rwe"}', "/api/frames": '{"name": "planted", "pose": "tool"}'}
+    body = bodies.get(path, '{"name": "surface"}')
     response = httpx.post(base + path, content=body, headers={"Origin": EVIL, "Content-Type": "text/plain"})
     assert response.status_code == 403 and "evil.example" in response.json()["detail"]
     assert client.get(running).status == "running"
     assert client.health().queued == 0 and client.state().scene == "free_space"
+    assert client.frames() == []  # no frame planted either
     client.stop()
     client.close()
 
