@@ -504,6 +504,33 @@ def test_the_monitor_box_asks_for_the_force_task_monitor(console: ConsoleApp) ->
             assert console.check(behavior, params).params.monitor.band_fraction == 0.3  # type: ignore[union-attr]
 
 
+def test_the_twin_idles_on_a_short_link_and_runs_on_a_long_one(console: ConsoleApp) -> None:
+    """Below [twin] min_round_trip_s the delayed picture is the present: no ghost, no core spent
+    (and the bar says why); from a 0.3 s round trip on, the twin predicts."""
+    wait_for_state(console)
+    worker, ghost, poller = console.twin_worker, console.ghost, console.link_poller
+    assert worker is not None and ghost is not None and poller is not None
+    assert worker.min_rtt_s == 0.25
+    profile = console.client.base_url + "/_link/profile"
+
+    def settles(idle: bool) -> None:
+        poller.poll()
+        deadline = time.monotonic() + 5.0
+        while (worker.idle, console._prediction is None) != (idle, idle) and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert worker.idle is idle and (console._prediction is None) is idle
+        assert ghost.port.visible is not idle
+        assert ("twin: idle while the round trip is under 0.25 s" in console._twin_note()) is idle
+
+    settles(idle=True)
+    try:
+        httpx.put(profile, json={"uplink": 0.15, "downlink": 0.15}).raise_for_status()
+        settles(idle=False)
+    finally:
+        httpx.put(profile, json={"uplink": 0.0, "downlink": 0.0}).raise_for_status()
+    settles(idle=True)
+
+
 def test_the_ghost_moves_at_once_on_send_and_its_error_is_judged(server: ServiceProcess) -> None:
     """Behind a 1 s + 1 s link: the twin's port starts moving within 0.1 s of Send (the delayed
     picture moves 2 s later), and once telemetry catches up its prediction error is under 2 mm."""
@@ -548,9 +575,6 @@ def test_preview_says_how_a_move_ends_and_step_sends_its_first_part(
     """Issue 14, after IPSE: Preview runs the desk's 10 s PTWL to its exit on a copy of the model
     from the twin's state in under 1 s, sending nothing; Send step sends its first 25 %."""
     wait_for_state(console)
-    deadline = time.monotonic() + 10
-    while (console.twin is None or console.twin.point is None) and time.monotonic() < deadline:
-        time.sleep(0.02)
     with viser_client(console) as desk, RobotClient(server.url) as robot:
         console.seat.take(desk.client_id)
         desk.panel.frame.value = "base"
@@ -560,6 +584,7 @@ def test_preview_says_how_a_move_ends_and_step_sends_its_first_part(
         console.preview(desk)
         shown = desk.panel.preview_html.content
         assert 'data-exit="goal_reached"' in shown and len(robot.commands(limit=1000)) == sent_before
+        assert "from the latest telemetry" in shown  # a zero-delay link: the twin idles
         compute_s = float(shown.split('data-compute-s="')[1].split('"')[0])
         duration_s = float(shown.split('data-duration="')[1].split('"')[0])
         assert compute_s < 1.0 and duration_s == pytest.approx(10.0, abs=0.6)

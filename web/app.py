@@ -40,7 +40,7 @@ from web.robot_view import RobotView
 from web.seat import ControlSeat, operator_name
 from web.status_bar import BarInputs, Level, StatusBar
 from web.targets import Pose
-from web.twin import GroundTwin, Prediction, Sent
+from web.twin import GroundTwin, Prediction, Sent, point_from_state
 from web.twin_worker import TwinWorker
 
 NotificationColor = Literal["gray", "red", "green", "orange", "yellow", "blue"]
@@ -148,7 +148,14 @@ class ConsoleApp:
         if self.defaults.twin and replay is None:
             self.twin = GroundTwin(self._uplink_s)
             self.ghost = GhostView(self.server)
-            self.twin_worker = TwinWorker(self.twin, self.ghost, self.server, self._on_prediction)
+            self.twin_worker = TwinWorker(
+                self.twin,
+                self.ghost,
+                self.server,
+                self._on_prediction,
+                lambda: self.link_poller.rtt_s if self.link_poller is not None else 0.0,
+                self.defaults.twin_min_rtt_s,
+            )
             self.twin_worker.start()
         self.feed.start()
         self.link_poller.start()
@@ -232,15 +239,21 @@ class ConsoleApp:
         return check_command(behavior, params, gains, q_world_port, self.task_frames)
 
     def preview(self, desk: Desk) -> None:
-        """Run the desk's PTWL on a copy of the model from where the twin puts the robot now."""
+        """Run the desk's PTWL on a copy of the model from where the twin puts the robot now (from
+        the latest telemetry when no twin runs: on a short link that is now)."""
         checked = self.check("ptwl", desk.params("ptwl"))
+        with self._lock:
+            state = self._state
         point = self.twin.point if self.twin is not None else None
+        note = "" if point is not None else "from the latest telemetry"
+        if point is None and state is not None:
+            point = point_from_state(state, self.task_frames)
         if not isinstance(checked.params, PtwlParams):
             desk.show_preview(None, f"no preview: {checked.errors}")
         elif point is None:
-            desk.show_preview(None, "no preview: the twin has no robot state yet")
+            desk.show_preview(None, "no preview: no robot state yet")
         else:
-            desk.show_preview(self.previewer.run(point, checked.params))
+            desk.show_preview(self.previewer.run(point, checked.params), note)
 
     def send(self, desk: Desk, behavior: str, params: dict[str, Any]) -> None:
         """Send from a desk: only the one holding control; the record says who sent it."""
@@ -522,13 +535,20 @@ class ConsoleApp:
             self._restart_note,
             tuple(prediction.port[0].tolist()) if prediction is not None else None,
             self.twin.error_summary() if self.twin is not None else None,
+            self._twin_note(),
         )
+
+    def _twin_note(self) -> str:
+        worker = self.twin_worker
+        if worker is None or not worker.idle:
+            return ""
+        return f"twin: idle while the round trip is under {worker.min_rtt_s:g} s (the picture is the present)"
 
     def _uplink_s(self) -> float:
         profile = self.link_poller.profile if self.link_poller is not None else None
         return float(profile["uplink"]) if profile is not None else 0.0
 
-    def _on_prediction(self, prediction: Prediction) -> None:
+    def _on_prediction(self, prediction: Prediction | None) -> None:
         self._prediction = prediction
 
     def _on_level(self, level: Level) -> None:

@@ -17,6 +17,7 @@ class ConsoleDefaults:
     plot_s: float
     max_age_over_rtt_s: float
     twin: bool
+    twin_min_rtt_s: float
 
 
 def load_defaults() -> ConsoleDefaults:
@@ -30,4 +31,5 @@ def load_defaults() -> ConsoleDefaults:
         plot_s=float(raw["view"]["telemetry_plot_s"]),
         max_age_over_rtt_s=float(raw["commands"]["max_age_over_rtt_s"]),
         twin=bool(raw["twin"]["enabled"]),
+        twin_min_rtt_s=float(raw["twin"]["min_round_trip_s"]),
     )

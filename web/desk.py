@@ -112,13 +112,13 @@ class Desk:
         return send_if_enabled
 
     def show_preview(self, result: PreviewResult | None, note: str = "") -> None:
-        """A preview's paths and exit in this browser only; None: why there is none (`note`)."""
+        """A preview's paths and exit in this browser only, with `note` (where it started from);
+        None: why there is none (`note`)."""
         if result is None:
             self.preview_marks.hide()
-            self.panel.preview_html.content = preview_html(None, note)
-            return
-        self.preview_marks.show(result)
-        self.panel.preview_html.content = preview_html(result)
+        else:
+            self.preview_marks.show(result)
+        self.panel.preview_html.content = preview_html(result, note)
 
     def clear_contemplated(self) -> None:
         self.panel.set_ptwl_displacement(np.zeros(3), np.zeros(3))

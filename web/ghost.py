@@ -74,6 +74,13 @@ class GhostView:
             if self.label.text != error_text:
                 self.label.text = error_text
 
+    def hide(self) -> None:
+        """No ghost while the twin idles; the next show() places every part again."""
+        with self._lock:
+            for handle in (*self._bodies.values(), self.port):
+                handle.visible = False
+            self._sent.clear()  # so that the next show() sends every pose (and visibility) again
+
     def _place(self, key: str, handle: viser.FrameHandle, pose: np.ndarray) -> None:
         if self._sent.place(key, handle, pose):
             handle.visible = True

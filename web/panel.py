@@ -469,18 +469,20 @@ def frames_html(frames: list[dict[str, Any]]) -> str:
     return f'<div id="ptwl-frames" data-names="{html.escape(names)}" style="font-size:0.85em">{body}</div>'
 
 
-def preview_html(result: Any, note: str = "no preview yet") -> str:
-    """What the preview says (a PreviewResult; None: `note`, why there is none): exit, when, peak."""
+def preview_html(result: Any, note: str = "") -> str:
+    """What the preview says (a PreviewResult, with `note` on where it started; None: `note`, why
+    there is none): exit, when, peak."""
     if result is None:
         return (
             '<div id="ptwl-preview" data-exit="" style="color:#868e96;font-size:0.85em">'
-            f"{html.escape(note)}</div>"
+            f"{html.escape(note or 'no preview yet')}</div>"
         )
+    started = f"; {html.escape(note)}" if note else ""
     return (
         f'<div id="ptwl-preview" data-exit="{result.exit}" data-duration="{result.duration_s:.3f}" '
         f'data-peak-force="{result.peak_force_n:.3f}" data-compute-s="{result.compute_s:.3f}" '
         'style="font-size:0.85em">'
         f"preview: <b>{html.escape(result.exit)}</b> after {result.duration_s:.2f} s, "
         f"peak {result.peak_force_n:.1f} N / {result.peak_torque_nm:.2f} N m "
-        f'<span style="color:#868e96">(computed in {result.compute_s:.2f} s)</span></div>'
+        f'<span style="color:#868e96">(computed in {result.compute_s:.2f} s{started})</span></div>'
     )

@@ -58,6 +58,7 @@ class BarInputs:
     note: str  # e.g. "robot restarted at 12:00:01"
     predicted_port: tuple[float, float, float] | None = None  # [m] the ground twin's, if it runs
     prediction_error: tuple[float, float] | None = None  # [m] its last and 5 s max error
+    twin_note: str = ""  # why there is no prediction (the twin idles on a short link)
 
 
 @dataclass(frozen=True)
@@ -129,15 +130,21 @@ def _render(inputs: BarInputs, age: float | None, level: Level) -> str:
         f'<div id="ptwl-telemetry" {attrs}>{robot}{stale}</div>'
         f'<div style="color:{color}">{rtt}{html.escape(inputs.note)}</div>'
         f'<div id="ptwl-running">{html.escape(inputs.command)}</div>'
-        f"{_prediction_html(inputs.predicted_port, inputs.prediction_error)}"
+        f"{_prediction_html(inputs.predicted_port, inputs.prediction_error, inputs.twin_note)}"
         f"{_task_html(state.get('task') if state else None)}</div>"
     )
 
 
-def _prediction_html(port: tuple[float, float, float] | None, error: tuple[float, float] | None) -> str:
-    """The ground twin's line: where it puts the port now, and how far off it has been."""
+def _prediction_html(
+    port: tuple[float, float, float] | None, error: tuple[float, float] | None, note: str = ""
+) -> str:
+    """The ground twin's line: where it puts the port now, and how far off it has been (or why
+    there is no prediction)."""
     if port is None:
-        return '<div id="ptwl-prediction" data-x="" data-error-mm="" data-max-mm=""></div>'
+        return (
+            '<div id="ptwl-prediction" data-x="" data-error-mm="" data-max-mm="" style="color:#868e96">'
+            f"{html.escape(note)}</div>"
+        )
     x, y, z = (1000.0 * v for v in port)
     judged = describe_error(error)
     data = (

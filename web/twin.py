@@ -73,6 +73,21 @@ class Prediction:
     bodies: dict[str, list[float]]
 
 
+def point_from_state(state: dict[str, Any], frames: TaskFrames) -> TwinPoint:
+    """A telemetry state as a start for a preview: where the robot was when it sent the state
+    (the present on a short link, or when no twin runs)."""
+    gains = state["gains"]
+    return TwinPoint(
+        state["scene"],
+        float(state["sim_time"]),
+        tuple(state["joint_positions"]),
+        _pose(state["attractor"]),
+        Gains.of(gains["stiffness"], gains["damping"], gains["frame"]),
+        state.get("active_command") is not None,
+        frames,
+    )
+
+
 def _pose(message: dict[str, Any]) -> Pose:
     p, q = message["position"], message["quaternion"]
     return Pose((p[0], p[1], p[2]), (q[0], q[1], q[2], q[3]))
@@ -158,6 +173,13 @@ class GroundTwin:
         with self._lock:
             self._sent.append(sent)
             self._new_sends.append(sent)
+
+    def pause(self) -> None:
+        """The worker stops advancing the twin (a short link): it restarts from telemetry when
+        it goes on, and says nothing of the now meanwhile."""
+        with self._lock:
+            self._resync_due = True
+            self.point = None
 
     def on_stop(self) -> None:
         with self._lock:
