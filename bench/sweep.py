@@ -2,7 +2,10 @@
 
 Each trial is a sleeve-on-peg trial (the onboard state machine at RTT 0: about 12 s of sim
 time); `per_10s_sim` scales the rate to the issue's 10 s trials. Prints JSON:
-{"trial_sim_s", "workers", "one_worker": {...}, "all_workers": {...}, "speedup"}.
+{"trial_sim_s", "workers", "one_worker": {...}, "all_workers": {...}, "speedup", "same_rows",
+"physics_share", "per_10s_sim_physics_only"}: the last is the rate's ceiling were the Python
+side free, set by MuJoCo's contact work (the sleeve's 16 walls about the peg, all within
+0.3 mm of it once inserted).
 
     python -m bench.sweep [--trials 24]
 """
@@ -14,8 +17,11 @@ import statistics
 import time
 from typing import Any
 
+import mujoco
+
 from experiments.sweep.backends import run_local
 from experiments.sweep.spec import TrialSpec
+from experiments.sweep.trial import simulate
 
 
 def rate(specs: list[TrialSpec], workers: int) -> tuple[dict[str, Any], list[dict[str, Any]]]:
@@ -32,6 +38,17 @@ def rate(specs: list[TrialSpec], workers: int) -> tuple[dict[str, Any], list[dic
     }, rows
 
 
+def physics_share(spec: TrialSpec) -> float:
+    """The part of one trial's wall time spent inside mj_step (MuJoCo's own timer): the rest is
+    the Python controller, behaviors, link and operator. Rates above rate / share would need
+    cheaper physics, whatever the Python side did."""
+    t0 = time.perf_counter()
+    trial = simulate(spec)
+    wall = time.perf_counter() - t0
+    step = trial.robot.sim.data.timer[mujoco.mjtTimer.mjTIMER_STEP]
+    return step.duration / wall
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--trials", type=int, default=24)
@@ -41,6 +58,7 @@ def main() -> None:
     one, rows_one = rate(specs, 1)
     every, rows_every = rate(specs, workers)
     same = sorted(map(repr, rows_one)) == sorted(map(repr, rows_every))
+    share = statistics.fmean(physics_share(spec) for spec in specs[:3])
     print(
         json.dumps(
             {
@@ -50,6 +68,9 @@ def main() -> None:
                 "all_workers": every,
                 "speedup": round(every["trials_per_min"] / one["trials_per_min"], 2),
                 "same_rows": same,
+                "physics_share": round(share, 3),
+                # The ceiling with a free controller: physics alone, on every worker.
+                "per_10s_sim_physics_only": round(every["per_10s_sim"] / share, 1),
             }
         )
     )

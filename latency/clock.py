@@ -75,6 +75,11 @@ class SimulatedLink:
         self.advance_to(t)
         return self.link.admit(direction, size, kind)
 
+    def next_release(self) -> float | None:
+        """When the next message in either direction is due, if any is in flight."""
+        due = [r for d in DIRECTIONS if (r := self.link.next_release(d)) is not None]
+        return min(due) if due else None
+
     def advance_to(self, t: float) -> None:
         """Release, in time order, everything due up to t."""
         while True:

@@ -2,6 +2,7 @@
 behaviors, the onboard one only once; lost messages are asked about, never waited on forever."""
 
 import itertools
+from pathlib import Path
 
 import pytest
 
@@ -131,3 +132,38 @@ def test_think_times_are_paired_across_delays() -> None:
     """The same seed thinks the same at every RTT: only the delay differs between grid points."""
     near, far = (simulate(TrialSpec("quick_connect", "ground", rtt, 0.0, 0.0, 4, 2.0)) for rtt in (0.0, 5.0))
     assert near.operator.think_s == far.operator.think_s > 0.0
+
+
+@pytest.mark.parametrize(
+    ("spec", "profile"),
+    [
+        (TrialSpec("quick_connect", "ground", 2.0, 0.3, 0.2, 5, 1.0), None),
+        (
+            TrialSpec("quick_connect", "ground", 1.0, 0.0, 0.0, 2, 0.0),
+            LinkProfile(uplink=0.5, downlink=0.5, blackouts=[Blackout(start=0.0, duration=0.2, mode="drop")]),
+        ),
+    ],
+)
+def test_skipping_quiet_ticks_changes_no_figure(
+    spec: TrialSpec, profile: LinkProfile | None, tmp_path: Path
+) -> None:
+    """A recorded trial is stepped tick by tick (the recorder looks at every one); an unrecorded
+    one skips from event to event (VirtualRobot.tick_until). Both give the same row to the bit,
+    with jitter, loss, a resend and a requery on the way."""
+    trial = simulate(spec, profile)
+    skipped = row(trial)
+    ticked = row(simulate(spec, profile, record=tmp_path / "trial.mcap"))
+    assert skipped == ticked
+    assert skipped["commands_sent"] >= 2
+    # ... and it stops a tick after the operator learned the outcome, as the tick-by-tick loop.
+    assert trial.robot.sim.time == pytest.approx(skipped["operator_time_s"] + TICK_S, abs=TICK_S / 2)
+
+
+def test_a_quiet_stretch_ends_at_the_next_event_or_the_first_command_that_ends() -> None:
+    robot = VirtualRobot("quick_connect", 0)
+    assert robot.tick_until(0.0105) is None
+    assert robot.sim.time == pytest.approx(0.011)  # ticks while before the instant, then stops
+    robot.handle(Post("ground-1", PtwlParams(translation=[0.0, 0.0, 0.005], duration=0.2)))
+    done = robot.tick_until(5.0)
+    assert done is not None and done.tag == "ground-1"
+    assert robot.sim.time == pytest.approx(done.report.ended_at + TICK_S, abs=TICK_S)  # not 5 s

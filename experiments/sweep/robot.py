@@ -122,6 +122,16 @@ class VirtualRobot:
         self.running = None
         return done
 
+    def tick_until(self, until_s: float) -> Done | None:
+        """One tick, then more while nothing else can happen before `until_s` (the next instant
+        the link or the operator acts): a quiet stretch costs the physics and no bookkeeping.
+        Stops at the first command that ends."""
+        tick, sim = self.tick, self.sim
+        done = tick()
+        while done is None and sim.time < until_s:
+            done = tick()
+        return done
+
     @property
     def last_end_s(self) -> float | None:
         steps = self.figures.steps
