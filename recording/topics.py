@@ -17,6 +17,7 @@ BASE_FRAME = "base"
 WORLD_BODY = "world"  # MuJoCo's world body: the base frame itself, drawn in it
 PORT_FRAME = "port"
 ATTRACTOR_FRAME = "attractor"
+TASK_FRAME_PREFIX = "frame/"  # a task frame's id in /tf: frame/peg_axis (a body may share its name)
 
 
 @dataclass(frozen=True)
@@ -45,6 +46,11 @@ COMMANDS = Topic(
 STEPS = Topic("/steps", "ptwl.Step", "every state-machine step as it ends: behavior, exit, figures")
 TELEMETRY = Topic("/ptwl/telemetry", "ptwl.Telemetry", "the telemetry state message, whole (replay reads it)")
 GEOMETRY = Topic("/ptwl/geometry", "ptwl.Geometry", "GET /api/geometry's answer on start and every reset")
+FRAMES = Topic(
+    "/ptwl/frames",
+    "ptwl.Frames",
+    "the robot's named task frames (the telemetry `frames` message) on every scene load and change",
+)
 LINK = Topic("/link/messages", "ptwl.LinkMessage", "the link's per-message record: delays and drops")
 
 ALL = (
@@ -61,6 +67,7 @@ ALL = (
     STEPS,
     TELEMETRY,
     GEOMETRY,
+    FRAMES,
     LINK,
 )
 ROBOT = tuple(t for t in ALL if t is not LINK)  # what a robot session records
@@ -129,6 +136,24 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
     "ptwl.Telemetry": _object("The telemetry `state` message (GET /api/state plus seq)", {"sim_time": _NUM}),
     "ptwl.Geometry": _object(
         "The scene's geoms and bodies (GET /api/geometry)", {"scene": {"type": "string"}}
+    ),
+    "ptwl.Frames": _object(
+        "The robot's task frames (GET /api/frames), as the telemetry `frames` message carries them",
+        {
+            "type": {"type": "string", "const": "frames"},
+            "frames": {
+                "type": "array",
+                "items": _object(
+                    "A named frame: pose in base [m, w x y z], whose it is",
+                    {
+                        "name": {"type": "string"},
+                        "pose": {"type": "object"},
+                        "source": {"type": "string"},
+                        "defined_by": {"type": "string"},
+                    },
+                ),
+            },
+        },
     ),
     "ptwl.LinkMessage": _object(
         "One message through the link: when it arrived and left, its delay or why it was dropped",

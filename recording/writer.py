@@ -28,7 +28,7 @@ from foxglove.mcap import MCAPWriteOptions
 from foxglove.messages import FrameTransforms
 
 from recording import topics, well_known
-from recording.topics import ATTRACTOR_FRAME, PORT_FRAME, WORLD_BODY
+from recording.topics import ATTRACTOR_FRAME, PORT_FRAME, TASK_FRAME_PREFIX, WORLD_BODY
 from robot_sim.arm import JOINT_NAMES
 
 CHUNK_SPAN_NS = 1_000_000_000  # a chunk never spans this much log time: kill -9 loses less
@@ -104,6 +104,21 @@ class SessionRecorder:
         ]
         self._on(topics.TF).log(FrameTransforms(transforms=placed), log_time=ns)
         self._on(topics.SCENE).log(well_known.scene_entities(ns, geometry), log_time=ns)
+
+    def frames(self, message: dict[str, Any], ns: int) -> None:
+        """The robot's task frames as the telemetry `frames` message gives them: kept whole (a
+        replay answers GET /api/frames from it) and placed in /tf under frame/<name>, so a 3D
+        panel can show any of them."""
+        self._chunk(ns)
+        self._write(topics.FRAMES, ns, message)
+        placed = [
+            well_known.transform(
+                ns, TASK_FRAME_PREFIX + frame["name"], frame["pose"]["position"], frame["pose"]["quaternion"]
+            )
+            for frame in message["frames"]
+        ]
+        if placed:
+            self._on(topics.TF).log(FrameTransforms(transforms=placed), log_time=ns)
 
     def command(self, event: dict[str, Any], ns: int) -> None:
         """A command event (status change) as the API sends it, `behavior` naming its type."""

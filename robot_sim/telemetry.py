@@ -8,6 +8,7 @@ from robot_sim.gains import Gains
 from robot_sim.geometry import body_poses
 from robot_sim.scenes import TaskProgress
 from robot_sim.sim import Simulation
+from robot_sim.task_frames import TaskFrames, frame_dict
 
 
 def state_fields(sim: Simulation, moving: list[int]) -> dict[str, Any]:
@@ -28,6 +29,12 @@ def state_fields(sim: Simulation, moving: list[int]) -> dict[str, Any]:
         "gains": gains_fields(sim.controller.gains),
         "monitor": sim.monitor.fields() if sim.monitor is not None else None,
     }
+
+
+def frames_message(frames: TaskFrames) -> dict[str, Any]:
+    """The `frames` message: every client (and recording) hears of the task frames through it,
+    on each scene load and each change."""
+    return {"type": "frames", "frames": [frame_dict(f) for f in frames.all()]}
 
 
 def gains_fields(gains: Gains) -> dict[str, Any]:

@@ -2,9 +2,10 @@
 
 The simulation thread and the event loop only stamp and enqueue (a clock read and a queue put:
 recording must not disturb the robot); this thread decodes, converts and writes. It records
-the telemetry stream as sent, every command event, every behavior a command ran, and the
-scene's geometry whenever the runner says the scene (re)loaded: on start, on reset, after a
-fault's reload (queued before the first state of that load, so the file draws what it moves).
+the telemetry stream as sent (its states and its task frames), every command event, every
+behavior a command ran, and the scene's geometry whenever the runner says the scene (re)loaded:
+on start, on reset, after a fault's reload (queued before the first state of that load, so the
+file draws what it moves).
 """
 
 import json
@@ -75,8 +76,10 @@ class RecordingThread:
     def _record(self, kind: str, payload: Any, ns: int) -> None:
         if kind == "state":
             message = json.loads(payload)
-            if message["type"] == "state":  # the socket's `frames` messages are not recorded (yet)
+            if message["type"] == "state":
                 self._recorder.state(message, ns)
+            elif message["type"] == "frames":
+                self._recorder.frames(message, ns)
         elif kind == "command":
             self._recorder.command(json.loads(payload), ns)
         elif kind == "geometry":

@@ -23,8 +23,8 @@ from robot_sim.params import StateMachineParams
 from robot_sim.policies.run import StepRecord
 from robot_sim.scenes import get_scene
 from robot_sim.sim import Simulation
-from robot_sim.task_frames import TaskFrame, frame_dict, unit_quaternion
-from robot_sim.telemetry import state_fields
+from robot_sim.task_frames import TaskFrame, unit_quaternion
+from robot_sim.telemetry import frames_message, state_fields
 from server.commands import CommandBook, CommandRecord
 from server.pacing import RealTimePacer
 
@@ -126,9 +126,7 @@ class SimRunner:
 
     def _publish_frames(self) -> None:
         """Every client hears of a frame's coming and going on the telemetry socket."""
-        self._publish(
-            json.dumps({"type": "frames", "frames": [frame_dict(f) for f in self.sim.frames.all()]})
-        )
+        self._publish(json.dumps(frames_message(self.sim.frames)))
 
     def geometry(self) -> dict[str, Any]:
         """(simulation thread) The loaded scene's geoms and bodies (GET /api/geometry)."""

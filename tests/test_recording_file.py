@@ -17,7 +17,7 @@ from recording.writer import SessionRecorder
 from robot_sim.arm import JOINT_NAMES
 from robot_sim.geometry import moving_bodies, scene_geometry
 from robot_sim.sim import Simulation
-from robot_sim.telemetry import state_fields
+from robot_sim.telemetry import frames_message, state_fields
 
 T0_NS = 1_800_000_000_000_000_000  # a Unix time, as a live session's log times are
 STATES = 150  # 3 s at 50 Hz
@@ -32,6 +32,8 @@ def _session(path: Path) -> dict[str, Any]:
     out = SessionRecorder(path, {"source": "test"})
     sent: dict[str, Any] = {"states": [], "commands": [], "steps": [], "links": []}
     out.geometry(geometry, T0_NS)
+    sent["frames"] = frames_message(sim.frames)
+    out.frames(sent["frames"], T0_NS)
     for i in range(STATES):
         state = {"type": "state", "seq": i + 1, **state_fields(sim, moving), "active_command": None}
         # A force that turns and grows, so every arrow differs; one at rest (no arrow).
@@ -109,7 +111,7 @@ def test_every_channel_reads_back_as_sent(recorded: tuple[Path, dict[str, Any]])
     assert rec.metadata["ptwl"]["source"] == "test"
     counts = {t.name: len(rec.on(t.name)) for t in topics.ALL}
     assert counts == {
-        "/tf": STATES + 1,  # every state, and the bodies placed with the geometry
+        "/tf": STATES + 2,  # every state, the bodies placed with the geometry, the task frames
         "/port": STATES,
         "/attractor": STATES,
         "/joint_states": STATES,
@@ -122,6 +124,7 @@ def test_every_channel_reads_back_as_sent(recorded: tuple[Path, dict[str, Any]])
         "/steps": 1,
         "/ptwl/telemetry": STATES,
         "/ptwl/geometry": 1,
+        "/ptwl/frames": 1,
         "/link/messages": STATES,
     }
     for topic in topics.ALL:
@@ -137,6 +140,11 @@ def test_every_channel_reads_back_as_sent(recorded: tuple[Path, dict[str, Any]])
         and rec.values("/link/messages")[-1] == sent["links"][-1]
     )
     assert rec.values("/ptwl/geometry") == [sent["geometry"]]
+    assert rec.values("/ptwl/frames") == [sent["frames"]]
+    assert sent["frames"]["frames"][0]["name"] == "plate_normal"
+    [placed] = rec.values("/tf")[1].transforms  # the plate's frame, where the scene put it
+    assert placed.child_frame_id == "frame/plate_normal"
+    assert placed.translation.z == sent["frames"]["frames"][0]["pose"]["position"][2]
     step = rec.values("/steps")[0]
     assert step == {"command": 7, **sent["steps"][0]}
     first_log = rec.values("/log")[0]

@@ -78,6 +78,7 @@ def session(tmp_path_factory: pytest.TempPathFactory) -> dict:
             accepted = robot.command("ptwl", sender="ana at test", translation=[0.0, 0.02, 0.0], duration=0.6)
             heard = asyncio.run(_listen(a.url, LISTEN_S))
             final = robot.wait(accepted.id, timeout=10.0)
+            robot.add_frame("bench", {"position": [0.4, 0.1, 0.3], "quaternion": [0.0, 1.0, 0.0, 0.0]})
             robot.reset_scene("surface")  # a new scene: recorded anew, a new trial for the report
             time.sleep(0.5)
         stats = _stats(link)
@@ -127,8 +128,10 @@ def test_sigterm_finishes_the_file_and_it_holds_every_state_the_robot_sent(sessi
     assert [m.log_time_ns for m in rec.on("/ptwl/geometry")][1] <= first_state_of[
         "surface"
     ]  # drawn before moved
+    placings = sum(1 for frames in rec.values("/ptwl/frames") if frames["frames"])  # task frames, on /tf
+    extra = {"/tf": loads + placings, "/scene": loads}
     for topic in ("/tf", "/scene", "/port", "/attractor", "/joint_states", "/wrench", "/task"):
-        assert len(rec.on(topic)) == len(telemetry) + (loads if topic in ("/tf", "/scene") else 0), topic
+        assert len(rec.on(topic)) == len(telemetry) + extra.get(topic, 0), topic
         times = [m.log_time_ns for m in rec.on(topic)]
         assert times == sorted(times)
     last_port = rec.values("/port")[-1].pose.position
@@ -199,3 +202,19 @@ def test_recordings_are_never_overwritten_and_need_the_mcap_suffix(
     assert _record_args(Path("s.mcap"), 0) == ("--record", "s.mcap")
     assert _record_args(Path("s.mcap"), 2) == ("--record", "s.restart2.mcap")
     assert _record_args(None, 1) == ()
+
+
+def test_task_frames_are_recorded_as_announced_and_placed_in_tf(session: dict) -> None:
+    """Each `frames` message the robot sent (the scene's load, an operator's new frame, the next
+    scene's load) is in the file, in order, and each frame is a transform under frame/<name>."""
+    announced = [m.value["frames"] for m in session["a"].on("/ptwl/frames")]
+    names = [[f["name"] for f in frames] for frames in announced]
+    assert names == [[], ["bench"], ["plate_normal"]]  # free_space has none; a reset drops `bench`
+    bench = announced[1][0]
+    assert bench["pose"] == {"position": [0.4, 0.1, 0.3], "quaternion": [0.0, 1.0, 0.0, 0.0]}
+    assert bench["source"] == "operator"
+    tfs = session["a"].values("/tf")
+    [placed] = [t for tf in tfs for t in tf.transforms if t.child_frame_id == "frame/bench"]
+    assert placed.parent_frame_id == "base"
+    t, q = placed.translation, placed.rotation
+    assert (t.x, t.y, t.z) == (0.4, 0.1, 0.3) and (q.w, q.x, q.y, q.z) == (0.0, 1.0, 0.0, 0.0)

@@ -103,6 +103,9 @@ def test_the_robot_as_it_was_at_the_playhead(timeline: Timeline, recording_path:
     assert command["status"] == "done" and command["exit"] == "completed"
     assert client.get(f"/api/commands/{command['id']}").json()["peak_force"] == command["peak_force"]
     assert client.get("/api/geometry").json()["scene"] == "quick_connect"
+    [frame] = client.get("/api/frames").json()  # the scene's own, as recorded at the trial's start
+    assert frame["name"] == "mouth_axis" and frame["source"] == "scene"
+    assert frame["pose"] == timeline.frames_at(done_ns)[0]["pose"]
     assert client.get("/api/task").json()["success"] is True
     assert client.get("/api/health").json()["sim_time"] == client.get("/api/state").json()["sim_time"]
 
@@ -114,6 +117,7 @@ def test_nothing_can_be_sent_and_bad_controls_are_named(timeline: Timeline) -> N
         ("/api/commands", {"type": "rwe", "axes": ["z"], "duration": 1.0}),
         ("/api/stop", None),
         ("/api/scene", {"name": "lid"}),
+        ("/api/frames", {"name": "mine", "pose": "tool"}),
     ):
         response = client.post(path, json=body)
         assert response.status_code == 409 and "replay" in response.json()["detail"]
@@ -133,15 +137,20 @@ def test_the_socket_replays_messages_in_recorded_order_at_speed(timeline: Timeli
     player.set(position_ns=timeline.start_ns, speed=16.0)
     received: list[dict[str, Any]] = []
     with client.websocket_connect("ws://127.0.0.1:8123/api/telemetry") as ws:
-        received.append(json.loads(ws.receive_text()))  # the state at the playhead, at once
-        # Paused, a seek sends the state there at once (not at the next keep-alive).
+        # At once: the task frames at the playhead (a console lists them), then the state there.
+        frames = json.loads(ws.receive_text())
+        assert frames["type"] == "frames" and frames["frames"] == timeline.frames_at(timeline.start_ns) != []
+        received.append(json.loads(ws.receive_text()))
+        # Paused, a seek sends the frames and the state there at once (not at the next keep-alive).
         middle = timeline.telemetry.values[len(timeline.telemetry.values) // 2]
         middle_ns = timeline.telemetry.times_ns[len(timeline.telemetry.values) // 2]
         sought = time.monotonic()
         player.set(position_ns=middle_ns)
+        assert json.loads(ws.receive_text())["type"] == "frames"
         assert json.loads(ws.receive_text())["seq"] == middle["seq"]
         assert time.monotonic() - sought < KEEPALIVE_S / 2
         player.set(position_ns=timeline.start_ns)
+        assert json.loads(ws.receive_text())["type"] == "frames"
         assert json.loads(ws.receive_text())["seq"] == received[0]["seq"]
         started = time.monotonic()
         player.set(playing=True)

@@ -358,8 +358,7 @@ class ConsoleApp:
         """The one path that (re)draws the scene's bodies: at start, after a reset, on a new scene."""
         assert self.view is not None
         geometry = geometry or self.client.geometry()
-        if self.playback is None:  # a recording has no frames to ask for (not recorded yet)
-            self._set_frames([f.model_dump() for f in self.client.frames()])
+        self._set_frames([f.model_dump() for f in self.client.frames()])  # a replay's: as recorded
         with self.server.atomic():
             self.view.load(geometry)
             if self.ghost is not None:

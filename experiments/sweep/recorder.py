@@ -17,7 +17,7 @@ from latency.record import McapRecorder
 from recording.writer import SessionRecorder, versions
 from robot_sim.executor import CommandParams
 from robot_sim.geometry import moving_bodies, scene_geometry
-from robot_sim.telemetry import state_fields
+from robot_sim.telemetry import frames_message, state_fields
 
 TELEMETRY_PERIOD_S = 0.02  # the server's default telemetry rate, 50 Hz
 INSTANCE = "sweep"
@@ -47,6 +47,7 @@ class TrialRecorder:
         link.link.recorder = McapRecorder(self._out, _ns)
         sim = robot.sim
         self._out.geometry({"scene": sim.scene.name, **scene_geometry(sim.model, sim.data)}, 0)
+        self._out.frames(frames_message(sim.frames), 0)  # a trial's frames are the scene's
 
     def observe(self, done: Done | None) -> None:
         """After the robot's tick: record what changed (cheap when nothing did)."""

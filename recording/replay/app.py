@@ -1,7 +1,7 @@
 """A recording served as the robot: the same read routes and telemetry socket, answered from the
 recording at the playhead, so the console shows a replay exactly as it showed the session.
 
-Nothing can be sent to a recording: commands, STOP and scene resets answer 409 saying so.
+Nothing can be sent to a recording: commands, STOP, scene resets and new frames answer 409 saying so.
 `GET/PUT /_replay` is the playhead (play, pause, speed, position), as the link's `/_link/*` is
 the link's. Behind the same access guard as the robot (Host, Origin, token).
 """
@@ -22,7 +22,14 @@ from guard.json_body import StrictJsonBody
 from recording.replay.player import MAX_SPEED, SPEEDS, Player
 from recording.replay.timeline import Timeline
 from server.errors import install_error_handlers
-from server.models import CommandStatus, GeometryModel, HealthModel, RobotStateModel, TaskModel
+from server.models import (
+    CommandStatus,
+    FrameModel,
+    GeometryModel,
+    HealthModel,
+    RobotStateModel,
+    TaskModel,
+)
 from server.routes import robot as robot_routes
 from server.routes import scenes as scene_routes
 from server.telemetry import stamped
@@ -90,6 +97,10 @@ def create_replay_app(timeline: Timeline, player: Player, policy: AccessPolicy) 
     async def geometry() -> dict[str, Any]:
         return timeline.geometry_at(here())
 
+    @api.get("/frames", response_model=list[FrameModel])
+    async def frames() -> list[dict[str, Any]]:
+        return timeline.frames_at(here())
+
     api.add_api_route("/presets", robot_routes.presets, methods=["GET"])
     api.add_api_route("/scenes", scene_routes.scenes, methods=["GET"])
     api.add_api_route("/tasks", scene_routes.tasks, methods=["GET"])
@@ -108,6 +119,7 @@ def create_replay_app(timeline: Timeline, player: Player, policy: AccessPolicy) 
     @api.post("/commands", status_code=409)
     @api.post("/stop", status_code=409)
     @api.post("/scene", status_code=409)
+    @api.post("/frames", status_code=409)
     async def read_only() -> None:
         raise HTTPException(409, refused)
 
@@ -136,8 +148,8 @@ def create_replay_app(timeline: Timeline, player: Player, policy: AccessPolicy) 
 
 
 async def _stream(ws: WebSocket, timeline: Timeline, player: Player) -> None:
-    """From the playhead on, each message when the playhead passes it; after a seek, the state
-    there; while paused, that state again every KEEPALIVE_S."""
+    """From the playhead on, each message when the playhead passes it; after a seek, the task
+    frames and the state there; while paused, that state again every KEEPALIVE_S."""
     closed = asyncio.create_task(ws.receive())
     try:
         jumps, last_ns = -1, 0
@@ -146,7 +158,7 @@ async def _stream(ws: WebSocket, timeline: Timeline, player: Player) -> None:
             head = player.now()
             if player.jumps != jumps:
                 jumps, last_ns = player.jumps, head.position_ns
-                texts = [json.dumps(timeline.state_at(last_ns))]
+                texts = [timeline.frames_message_at(last_ns), json.dumps(timeline.state_at(last_ns))]
             else:
                 texts = [o.text for o in timeline.between(last_ns, head.position_ns)]
                 last_ns = head.position_ns

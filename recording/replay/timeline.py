@@ -2,7 +2,7 @@
 
 Everything is indexed by log time, so "the state at t" and "what happened between t0 and t1"
 are binary searches. What the console reads live (GET /api/state, /api/geometry,
-/api/commands and the telemetry stream) is answered from here.
+/api/frames, /api/commands and the telemetry stream) is answered from here.
 """
 
 import bisect
@@ -48,6 +48,7 @@ class Timeline:
         self.geometry = _Series()
         self.tasks = _Series()
         self.commands = _Series()
+        self.frames = _Series()
         stream: list[Outgoing] = []
         for m in sorted(recording.messages, key=lambda m: m.log_time_ns):  # stable: file order on ties
             if m.topic == topics.TELEMETRY.name:
@@ -60,6 +61,9 @@ class Timeline:
                 self.geometry.add(m.log_time_ns, m.value)
             elif m.topic == topics.TASK.name:
                 self.tasks.add(m.log_time_ns, m.value)
+            elif m.topic == topics.FRAMES.name:
+                self.frames.add(m.log_time_ns, m.value["frames"])
+                stream.append(Outgoing(m.log_time_ns, json.dumps(m.value), False))
         if not self.telemetry.times_ns or not self.geometry.times_ns:
             raise ValueError(
                 f"{recording.path}: no robot telemetry or scene in it: not a ptwl session recording"
@@ -84,6 +88,15 @@ class Timeline:
 
     def geometry_at(self, ns: int) -> dict[str, Any]:
         return self.geometry.at(ns) or self.geometry.values[0]
+
+    def frames_at(self, ns: int) -> list[dict[str, Any]]:
+        """The task frames as the robot last announced them (none in a file recorded before
+        frames were)."""
+        return self.frames.at(ns) or []
+
+    def frames_message_at(self, ns: int) -> str:
+        """The telemetry `frames` message that brings a console up to date at `ns` (a seek)."""
+        return json.dumps({"type": "frames", "frames": self.frames_at(ns)})
 
     def task_at(self, ns: int) -> dict[str, Any] | None:
         return self.tasks.at(ns)
