@@ -206,6 +206,9 @@ def test_ground_time_grows_linearly_with_delay_and_onboard_stays_flat(tmp_path: 
     assert abs(onboard.slope) < 0.1 * ground.slope
     report = (tmp_path / "report.md").read_text()
     assert f"{ground.slope:.3f} x RTT (R^2 = {ground.r2_means:.3f} against the mean at each RTT" in report
+    change = abs(onboard.slope) * 10.0
+    flat = f"{onboard.slope:.3f} x RTT (flat: {change:.3f} s from 0 to 10 s of RTT, so no R^2)"
+    assert flat in report  # a line without a trend is called flat, not given a meaningless R^2
     assert f"onboard slope is {100.0 * onboard.slope / ground.slope:.1f} % of the ground slope" in report
     assert "onboard is faster at every delay measured" in report  # think time makes ground slower at 0
 

@@ -74,15 +74,26 @@ def _success_plot(rows: list[dict[str, Any]], path: Path) -> None:
     plt.close(fig)
 
 
+FLAT_S = 0.1  # [s] a task time that changes less than this over the RTTs measured is flat
+
+
 def findings(rows: list[dict[str, Any]]) -> list[str]:
     """The sweep's conclusions as sentences with numbers."""
     lines = []
     task_fits, operator_fits = fits(rows), fits(rows, "operator_time_s")
+    rtts = sorted({r["rtt_s"] for r in rows})
     for operator, fit in task_fits.items():
+        change_s = abs(fit.slope) * (rtts[-1] - rtts[0])
+        if change_s < FLAT_S:  # R^2 measures how well a trend explains the spread: with none, noise
+            how = f"flat: {change_s:.3f} s from {rtts[0]:g} to {rtts[-1]:g} s of RTT, so no R^2"
+        else:
+            how = (
+                f"R^2 = {fit.r2_means:.3f} against the mean at each RTT, {fit.r2_trials:.3f} over "
+                "single trials"
+            )
         lines.append(
             f"- **{operator}**: task time = {fit.intercept:.2f} s + {fit.slope:.3f} x RTT "
-            f"(R^2 = {fit.r2_means:.3f} against the mean at each RTT, {fit.r2_trials:.3f} over single "
-            "trials); the operator knew the outcome "
+            f"({how}); the operator knew the outcome "
             f"{operator_fits[operator].slope:.3f} s later per second of RTT "
             f"(intercept {operator_fits[operator].intercept:.2f} s)."
         )
@@ -94,7 +105,6 @@ def findings(rows: list[dict[str, Any]]) -> list[str]:
             f"({onboard.slope:.3f} against {ground.slope:.3f} s per s of RTT)."
         )
         crossing = break_even_s(ground, onboard)
-        rtts = sorted({r["rtt_s"] for r in rows})
         if crossing is None:
             lines.append("- The two lines are parallel: no break-even delay.")
         elif crossing <= rtts[0]:
