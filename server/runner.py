@@ -10,6 +10,7 @@ import json
 import math
 import queue
 import threading
+import time
 from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass
@@ -206,7 +207,11 @@ class SimRunner:
     def _publish_state(self) -> None:
         self.latest_state = state = self._state()
         self._seq += 1
-        self._publish(json.dumps({"type": "state", "seq": self._seq, **state}))
+        # taken_at: the wall clock at this sim_time, stamped here on the simulation thread. The
+        # socket's sent_at is stamped as the message leaves, after the event loop's queue: under
+        # load later by tens of ms, which a ground twin timing commands by it would mistake for
+        # the robot being that much further along.
+        self._publish(json.dumps({"type": "state", "seq": self._seq, **state, "taken_at": time.time()}))
         self._next_telemetry += self._period
         if self._next_telemetry < self.sim.time:  # fell behind (dropped backlog): no burst
             self._next_telemetry = self.sim.time + self._period

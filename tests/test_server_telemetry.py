@@ -1,4 +1,4 @@
-"""Telemetry: rate with 1 and 10 clients, sequence numbers, sent_at, slow clients."""
+"""Telemetry: rate with 1 and 10 clients, sequence numbers, sent_at and taken_at, slow clients."""
 
 import asyncio
 import itertools
@@ -51,6 +51,13 @@ def test_rate_within_10_percent_and_sequence_increments_by_one(server: ServicePr
         assert ages[0] > -0.01 and ages[len(ages) // 2] < 0.01 and ages[-1] < 0.5
         first = states[0][1]
         assert {"port", "attractor", "wrench", "joint_positions", "active_command", "scene"} <= set(first)
+        # taken_at is the wall clock at sim_time (the simulation thread's stamp): it never comes
+        # after sent_at, and it advances with sim time (the robot runs paced to the wall clock).
+        waits = sorted(m["sent_at"] - m["taken_at"] for _, m in states)  # both the server's clock
+        assert waits[0] >= 0.0 and waits[len(waits) // 2] < 0.02 and waits[-1] < 0.5
+        span_sim = states[-1][1]["sim_time"] - first["sim_time"]
+        span_wall = states[-1][1]["taken_at"] - first["taken_at"]
+        assert span_wall == pytest.approx(span_sim, abs=0.02)
 
 
 def test_a_client_that_stops_reading_slows_neither_the_sim_nor_the_others(server: ServiceProcess) -> None:

@@ -31,6 +31,18 @@ def test_a_running_event_before_its_202_does_not_replay_the_command_twice() -> N
     assert result.max_mm < 2.0
 
 
+def test_states_that_leave_the_robot_late_do_not_shift_the_prediction() -> None:
+    """A busy event loop sends each state 0.15 s after the simulation took it (`sent_at` late,
+    `taken_at` not): timed by `taken_at` the twin still starts commands where the robot does."""
+    late = run_trial(Simulation("free_space"), 3.0, free_space_moves(), 12.0, send_lag_s=0.15)
+    assert len(late.errors_m) > 400 and late.max_mm < 2.0
+    # Timed by sent_at (a robot without taken_at), it leads the robot by 0.15 s of motion.
+    untimed = run_trial(
+        Simulation("free_space"), 3.0, free_space_moves(), 12.0, send_lag_s=0.15, stamps_taken_at=False
+    )
+    assert untimed.max_mm > 2.0 * late.max_mm
+
+
 def test_a_send_moves_the_prediction_within_0_1_s() -> None:
     """Sent between two restarts from telemetry: the twin starts it at its next 20 ms tick (the
     port is seen moving 69 ms after the send), not at the next restart up to 0.5 s later."""

@@ -3,7 +3,7 @@ and predicted displays): the console's own copy of the robot model, started from
 delayed telemetry and fed every command sent since, simulated forward to "now".
 
 "Now" is the robot at the moment a command sent now would reach it: robot sim time
-t(W) = t_state + (W - sent_at_state) (the robot runs paced to its wall clock), taken at
+t(W) = t_state + (W - taken_at_state) (the robot runs paced to its wall clock), taken at
 W = now + uplink. So the twin leads the delayed picture by a round trip, and a command starts
 moving it as soon as it is sent; telemetry shows the same instant a round trip later, which is
 when the twin's prediction for it is judged (`errors`).
@@ -71,6 +71,12 @@ class Prediction:
     sim_time: float
     port: tuple[np.ndarray, np.ndarray]  # position [m], wxyz
     bodies: dict[str, list[float]]
+
+
+def robot_wall_s(state: dict[str, Any]) -> float:
+    """[s] the robot's wall clock at the state's sim_time: `taken_at`, stamped on its simulation
+    thread; else `sent_at` (a robot from before `taken_at`), which a busy event loop makes late."""
+    return float(state.get("taken_at", state["sent_at"]))
 
 
 def point_from_state(state: dict[str, Any], frames: TaskFrames) -> TwinPoint:
@@ -202,7 +208,7 @@ class GroundTwin:
         if state is None:
             return None
         uplink_s = self._uplink_s()
-        target_s = float(state["sim_time"]) + (now_wall + uplink_s - float(state["sent_at"]))
+        target_s = float(state["sim_time"]) + (now_wall + uplink_s - robot_wall_s(state))
         if self.sim is None or self.sim.scene.name != state["scene"]:
             self.sim = Simulation(state["scene"])
             self._moving = moving_bodies(self.sim.model)
@@ -234,7 +240,7 @@ class GroundTwin:
     ) -> None:
         sim = self.sim
         assert sim is not None
-        t_state, sent_at = float(state["sim_time"]), float(state["sent_at"])
+        t_state, sent_at = float(state["sim_time"]), robot_wall_s(state)
         gains = state["gains"]
         sim.frames = self.frames
         gains_now = Gains.of(gains["stiffness"], gains["damping"], gains["frame"])

@@ -54,9 +54,13 @@ def run_trial(
     seconds: float,
     twin_scene_check: Callable[[GroundTwin], None] | None = None,
     ack_lag_s: float = ACK_LAG_S,
+    send_lag_s: float = 0.0,
+    stamps_taken_at: bool = True,
 ) -> TrialResult:
     """`sends`: (virtual seconds from the start, params), sent from the console; the link splits
-    `rtt_s` evenly. Returns every prediction error the console would have shown."""
+    `rtt_s` evenly; `send_lag_s`: how long after it is taken each state leaves the robot (its
+    event loop busy); `stamps_taken_at` False: a robot from before `taken_at`. Returns every
+    prediction error the console would have shown."""
     up_s = down_s = rtt_s / 2.0
     twin = GroundTwin(uplink_s=lambda: up_s)
     twin.frames = TaskFrames(robot.frames.all())  # as the console heard them (GET /api/frames)
@@ -111,8 +115,12 @@ def run_trial(
             running = None
         if robot.time - t0 >= next_state:
             next_state += STATE_S
-            state = {**state_fields(robot, []), "sent_at": WALL0 + robot.time}  # as the robot sends it
-            to_console.append((wall + down_s, "state", state))
+            # As the robot sends it: taken now, leaving send_lag_s later.
+            taken_at = WALL0 + robot.time
+            state = {**state_fields(robot, []), "sent_at": taken_at + send_lag_s}
+            if stamps_taken_at:
+                state["taken_at"] = taken_at
+            to_console.append((wall + send_lag_s + down_s, "state", state))
             history.append((robot.time, robot.controller.p_world_port.copy()))
         while to_console and to_console[0][0] <= wall:
             arrival, kind, message = to_console.popleft()
