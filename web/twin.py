@@ -82,16 +82,21 @@ def robot_wall_s(state: dict[str, Any]) -> float:
 def point_from_state(state: dict[str, Any], frames: TaskFrames) -> TwinPoint:
     """A telemetry state as a start for a preview: where the robot was when it sent the state
     (the present on a short link, or when no twin runs)."""
-    gains = state["gains"]
     return TwinPoint(
         state["scene"],
         float(state["sim_time"]),
         tuple(state["joint_positions"]),
         _pose(state["attractor"]),
-        Gains.of(gains["stiffness"], gains["damping"], gains["frame"]),
+        _gains(state),
         state.get("active_command") is not None,
         frames,
     )
+
+
+def _gains(state: dict[str, Any]) -> Gains:
+    """The gains a telemetry state says were in force."""
+    gains = state["gains"]
+    return Gains.of(gains["stiffness"], gains["damping"], gains["frame"])
 
 
 def _pose(message: dict[str, Any]) -> Pose:
@@ -240,22 +245,21 @@ class GroundTwin:
     ) -> None:
         sim = self.sim
         assert sim is not None
-        t_state, sent_at = float(state["sim_time"]), robot_wall_s(state)
-        gains = state["gains"]
+        t_state, taken_at = float(state["sim_time"]), robot_wall_s(state)
         sim.frames = self.frames
-        gains_now = Gains.of(gains["stiffness"], gains["damping"], gains["frame"])
+        gains_now = _gains(state)
         if gains_now.frame not in self.frames.names():  # a frame whose news is still on the link
             gains_now = gains_now.in_frame("base")
         sim.sync_to(t_state, state["joint_positions"], _pose(state["attractor"]), gains_now)
         self._queue.clear()
         if running is not None and running.get("started_at") is not None:
-            elapsed_s = sent_at - float(running["started_at"])  # both the robot's wall clock
+            elapsed_s = taken_at - float(running["started_at"])  # both the robot's wall clock
             port = sim.state().port  # after sync_to: the kinematics of the reported joints
             rest = remaining_ptwl(running, port, elapsed_s)
             if rest is not None:
                 self._queue.append((rest, t_state))
         for s in sent:  # each no earlier than it can reach the robot
-            self._queue.append((s.params, t_state + (s.sent_wall + uplink_s - sent_at)))
+            self._queue.append((s.params, t_state + (s.sent_wall + uplink_s - taken_at)))
 
     def _run_to(self, target_s: float, record: bool) -> None:
         sim = self.sim

@@ -158,7 +158,7 @@ async def _stream(ws: WebSocket, timeline: Timeline, player: Player) -> None:
             head = player.now()
             if player.jumps != jumps:
                 jumps, last_ns = player.jumps, head.position_ns
-                texts = [timeline.frames_message_at(last_ns), json.dumps(timeline.state_at(last_ns))]
+                texts = [*timeline.frames_messages_at(last_ns), json.dumps(timeline.state_at(last_ns))]
             else:
                 texts = [o.text for o in timeline.between(last_ns, head.position_ns)]
                 last_ns = head.position_ns

@@ -62,7 +62,7 @@ class Timeline:
             elif m.topic == topics.TASK.name:
                 self.tasks.add(m.log_time_ns, m.value)
             elif m.topic == topics.FRAMES.name:
-                self.frames.add(m.log_time_ns, m.value["frames"])
+                self.frames.add(m.log_time_ns, m.value)  # the telemetry `frames` message, whole
                 stream.append(Outgoing(m.log_time_ns, json.dumps(m.value), False))
         if not self.telemetry.times_ns or not self.geometry.times_ns:
             raise ValueError(
@@ -92,11 +92,14 @@ class Timeline:
     def frames_at(self, ns: int) -> list[dict[str, Any]]:
         """The task frames as the robot last announced them (none in a file recorded before
         frames were)."""
-        return self.frames.at(ns) or []
+        message = self.frames.at(ns)
+        return message["frames"] if message is not None else []
 
-    def frames_message_at(self, ns: int) -> str:
-        """The telemetry `frames` message that brings a console up to date at `ns` (a seek)."""
-        return json.dumps({"type": "frames", "frames": self.frames_at(ns)})
+    def frames_messages_at(self, ns: int) -> list[str]:
+        """The `frames` message, as recorded, that brings a console up to date at `ns` (a seek);
+        none before the first (the console keeps what GET /api/frames said)."""
+        message = self.frames.at(ns)
+        return [json.dumps(message)] if message is not None else []
 
     def task_at(self, ns: int) -> dict[str, Any] | None:
         return self.tasks.at(ns)
