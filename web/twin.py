@@ -79,6 +79,12 @@ def robot_wall_s(state: dict[str, Any]) -> float:
     return float(state.get("taken_at", state["sent_at"]))
 
 
+def arrival_sim_s(t_state: float, taken_at: float, sent_wall: float, uplink_s: float) -> float:
+    """[s] the robot's sim time when a command sent at `sent_wall` reaches it, by a state's
+    (sim_time, taken_at) pair: the robot runs paced to its wall clock."""
+    return t_state + (sent_wall + uplink_s - taken_at)
+
+
 def point_from_state(state: dict[str, Any], frames: TaskFrames) -> TwinPoint:
     """A telemetry state as a start for a preview: where the robot was when it sent the state
     (the present on a short link, or when no twin runs)."""
@@ -222,8 +228,11 @@ class GroundTwin:
             self._restart(state, running, sent, uplink_s)
             self._resynced_wall = now_wall
         else:
+            # At its arrival, not at the twin's time now: a starved twin thread stands behind
+            # the send, and would start the command early by as long as it was held up.
+            t_state, taken_at = float(state["sim_time"]), robot_wall_s(state)
             for s in new:
-                self._queue.append((s.params, self.sim.time))
+                self._queue.append((s.params, arrival_sim_s(t_state, taken_at, s.sent_wall, uplink_s)))
         self._run_to(target_s, record=True)
         ctl = self.sim.controller
         port = (ctl.p_world_port.copy(), ctl.q_world_port.copy())
@@ -259,7 +268,7 @@ class GroundTwin:
             if rest is not None:
                 self._queue.append((rest, t_state))
         for s in sent:  # each no earlier than it can reach the robot
-            self._queue.append((s.params, t_state + (s.sent_wall + uplink_s - taken_at)))
+            self._queue.append((s.params, arrival_sim_s(t_state, taken_at, s.sent_wall, uplink_s)))
 
     def _run_to(self, target_s: float, record: bool) -> None:
         sim = self.sim

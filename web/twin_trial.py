@@ -56,11 +56,13 @@ def run_trial(
     ack_lag_s: float = ACK_LAG_S,
     send_lag_s: float = 0.0,
     stamps_taken_at: bool = True,
+    stall_s: float = 0.0,
 ) -> TrialResult:
     """`sends`: (virtual seconds from the start, params), sent from the console; the link splits
     `rtt_s` evenly; `send_lag_s`: how long after it is taken each state leaves the robot (its
-    event loop busy); `stamps_taken_at` False: a robot from before `taken_at`. Returns every
-    prediction error the console would have shown."""
+    event loop busy); `stamps_taken_at` False: a robot from before `taken_at`; `stall_s`: the
+    twin's thread misses its ticks for this long before each send, waking just after it (the
+    console's process starved of CPU). Returns every prediction error the console would have shown."""
     up_s = down_s = rtt_s / 2.0
     twin = GroundTwin(uplink_s=lambda: up_s)
     twin.frames = TaskFrames(robot.frames.all())  # as the console heard them (GET /api/frames)
@@ -70,6 +72,8 @@ def run_trial(
     started: set[int] = set()  # ids whose `running` event reached the console
     running: int | None = None
     pending_sends = sorted(sends, key=lambda s: s[0])
+    # Held up until just after the send: the thread wakes to a send it has not run to yet.
+    stalls = [(at - stall_s, at + 0.005) for at, _ in pending_sends if stall_s > 0.0]
     ids = itertools.count(1000)
     result = TrialResult([])
     next_state = next_tick = 0.0
@@ -136,8 +140,10 @@ def run_trial(
                 if message.get("status") == "running":
                     started.add(int(message["id"]))
                 twin.on_command(message)
-        if robot.time - t0 >= next_tick:
-            next_tick += TWIN_TICK_S
+        stalled = any(start <= robot.time - t0 < end for start, end in stalls)
+        if robot.time - t0 >= next_tick and not stalled:
+            while next_tick <= robot.time - t0:  # after a stall, the next tick is 20 ms on
+                next_tick += TWIN_TICK_S
             prediction = twin.advance(wall)
             if prediction is not None:
                 for sent_wall, before in list(moved_after):
