@@ -219,7 +219,8 @@ class GroundTwin:
         if state is None:
             return None
         uplink_s = self._uplink_s()
-        target_s = float(state["sim_time"]) + (now_wall + uplink_s - robot_wall_s(state))
+        t_state, taken_at = float(state["sim_time"]), robot_wall_s(state)
+        target_s = arrival_sim_s(t_state, taken_at, now_wall, uplink_s)  # a command sent now
         if self.sim is None or self.sim.scene.name != state["scene"]:
             self.sim = Simulation(state["scene"])
             self._moving = moving_bodies(self.sim.model)
@@ -228,11 +229,9 @@ class GroundTwin:
             self._restart(state, running, sent, uplink_s)
             self._resynced_wall = now_wall
         else:
-            # At its arrival, not at the twin's time now: a starved twin thread stands behind
+            # At their arrival, not at the twin's time now: a starved twin thread stands behind
             # the send, and would start the command early by as long as it was held up.
-            t_state, taken_at = float(state["sim_time"]), robot_wall_s(state)
-            for s in new:
-                self._queue.append((s.params, arrival_sim_s(t_state, taken_at, s.sent_wall, uplink_s)))
+            self._queue_at_arrival(new, t_state, taken_at, uplink_s)
         self._run_to(target_s, record=True)
         ctl = self.sim.controller
         port = (ctl.p_world_port.copy(), ctl.q_world_port.copy())
@@ -267,7 +266,11 @@ class GroundTwin:
             rest = remaining_ptwl(running, port, elapsed_s)
             if rest is not None:
                 self._queue.append((rest, t_state))
-        for s in sent:  # each no earlier than it can reach the robot
+        self._queue_at_arrival(sent, t_state, taken_at, uplink_s)
+
+    def _queue_at_arrival(self, sends: list[Sent], t_state: float, taken_at: float, uplink_s: float) -> None:
+        """Each no earlier than it can reach the robot, by the (sim_time, taken_at) of a state."""
+        for s in sends:
             self._queue.append((s.params, arrival_sim_s(t_state, taken_at, s.sent_wall, uplink_s)))
 
     def _run_to(self, target_s: float, record: bool) -> None:
