@@ -50,7 +50,10 @@ class PoseModel(BaseModel):
 
 
 SENDER_HEADER = "x-ptwl-sender"
-SENDER_PATTERN = r"^[\x20-\x7e]{1,64}$"  # printable ASCII: it is shown to every operator
+# Who sent a command is shown to every operator: letters, digits, space and . _ - : @ / # ( ) + ,
+# only, so no markup character (< > & " ' `) can reach a page even before the console escapes it.
+SENDER_PATTERN = r"^[A-Za-z0-9 ._:@/#()+,-]{1,64}$"
+SENDER_DOC = "who sends it (1-64 of letters, digits, space and . _ - : @ / # ( ) + ,), kept in its record"
 INSTANCE_DOC = "the server run that gave the id (changes on every restart)"
 
 

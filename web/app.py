@@ -469,7 +469,7 @@ class ConsoleApp:
 
     def _on_link_profile(self, text: str) -> None:
         if self.board is not None:
-            self.board.link.content = text
+            self.board.show_link_profile(text)
 
     def _replay_jumped(self) -> None:
         """A replay seek: the history and plots become what they were at the new time."""
@@ -562,23 +562,7 @@ class ConsoleApp:
 
     def _show_history(self) -> None:
         assert self.board is not None
-        counts = self.history.counts()
-        ptwl = ", ".join(f"{k} {v}" for k, v in sorted(counts["ptwl"].items())) or "none"
-        lines = [
-            f"**PTWL** {counts['ptwl_total']} ({ptwl}) · **RWE** {counts['rwe']} · "
-            f"**Dither** {counts['dither']}",
-            f"peak force {counts['peak_force']:.1f} N · peak torque {counts['peak_torque']:.2f} N m",
-            "",
-            "| cmd | behavior | status | by | peak F [N] | peak τ [N m] | time [s] |",
-            "|---|---|---|---|---|---|---|",
-        ]
-        for v in reversed(self.history.recent(8)):
-            f = f"{v.peak_force:.1f}" if v.peak_force is not None else ""
-            t = f"{v.peak_torque:.2f}" if v.peak_torque is not None else ""
-            d = f"{v.duration:.2f}" if v.duration is not None else ""
-            by = (v.sender or "script").split(" at console")[0]
-            lines.append(f"| {v.label} | {v.behavior} | {v.status} | {by} | {f} | {t} | {d} |")
-        self.board.history.content = "\n".join(lines)
+        self.board.show_history(self.history.counts(), list(reversed(self.history.recent(8))))
 
     def _notify(self, title: str, body: str, color: NotificationColor) -> None:
         for client in self.server.get_clients().values():

@@ -1,11 +1,11 @@
 """What every browser shares: the latest command's line, the force/torque plots, the command
 history with the paper's counts, and the scene and link controls."""
 
-import html
 from typing import Any
 
 import viser
 
+from web.markup import Markup, add_html, show
 from web.panel import gains_html
 from web.plots import WrenchPlots
 
@@ -14,21 +14,21 @@ BOARD_ORDER = 100.0  # below each browser's own form
 
 class Board:
     def __init__(self, gui: viser.GuiApi, scenes: list[str], scene: str, plot_window_s: float) -> None:
-        self.command_status = gui.add_html(_command_html(None), order=BOARD_ORDER)
-        self.commanded = gui.add_html(_commanded_html(None), order=BOARD_ORDER + 0.5)
-        self.gains = gui.add_html('<div id="ptwl-gains"></div>', order=BOARD_ORDER + 0.6)
+        self.command_status = add_html(gui, _command_html(None), order=BOARD_ORDER)
+        self.commanded = add_html(gui, _commanded_html(None), order=BOARD_ORDER + 0.5)
+        self.gains = add_html(gui, Markup('<div id="ptwl-gains"></div>'), order=BOARD_ORDER + 0.6)
         # Which state the 3D scene shows, sent in the same atomic batch as the scene (tests and
         # bench/console.py read it; the status bar shows the age on its own clock).
-        self.scene_state = gui.add_html(_scene_state_html(None, None), order=BOARD_ORDER + 0.7)
+        self.scene_state = add_html(gui, _scene_state_html(None, None), order=BOARD_ORDER + 0.7)
         with gui.add_folder("Force / torque", expand_by_default=True, order=BOARD_ORDER + 1):
             self.plots = WrenchPlots(gui, plot_window_s)
         with gui.add_folder("Commands", expand_by_default=True, order=BOARD_ORDER + 2):
-            self.history = gui.add_markdown("No commands yet.")
+            self.history = add_html(gui, Markup("No commands yet."))
         with gui.add_folder("Scene and link", expand_by_default=False, order=BOARD_ORDER + 3):
             self.scene = gui.add_dropdown("Scene", scenes, initial_value=scene)
             self.seed = gui.add_number("Seed (0: nominal)", 0, min=0, step=1)
             self.reset_scene = gui.add_button("Reset scene")
-            self.link = gui.add_markdown("link: unknown")
+            self.link = add_html(gui, Markup('<div id="ptwl-link-profile">link: unknown</div>'))
 
     def show_scene(self, scene: str) -> None:
         """The scene the robot has loaded, as the reset dropdown's choice."""
@@ -36,66 +36,129 @@ class Board:
         handle.value = scene
 
     def show_command(self, view: Any) -> None:
-        self.command_status.content = _command_html(view)
+        show(self.command_status, _command_html(view))
 
     def show_scene_state(self, seq: int, arrived: float) -> None:
-        self.scene_state.content = _scene_state_html(seq, arrived)
+        show(self.scene_state, _scene_state_html(seq, arrived))
 
     def show_gains(self, gains: dict[str, Any] | None) -> None:
         """The stiffness and damping in force on the robot now (as its telemetry reports them)."""
         if gains is None:
             return
         shown = gains_html(gains["stiffness"], gains["damping"], "ptwl-gains", f"{gains['frame']} axes")
-        self.gains.content = (
-            f"<div style='font-size:0.8em'>gains on the robot now ({gains['frame']} axes):</div>{shown}"
-        )
+        caption = Markup("<div style='font-size:0.8em'>gains on the robot now ({} axes):</div>")
+        show(self.gains, caption.format(gains["frame"]) + shown)
+
+    def show_link_profile(self, text: str) -> None:
+        show(self.link, Markup('<div id="ptwl-link-profile">{}</div>').format(text))
+
+    def show_history(self, counts: dict[str, Any], views: list[Any]) -> None:
+        """The paper's counts (PTWL by exit condition, RWE, Dither, peaks) and the latest commands,
+        newest first."""
+        show(self.history, _history_html(counts, views))
 
     def show_commanded(self, view: Any, distance_mm: float | None = None) -> None:
         """The commanded target the 3D marker shows (the last PTWL sent from this console), and
         how far it is from the port."""
-        self.commanded.content = _commanded_html(view, distance_mm)
+        show(self.commanded, _commanded_html(view, distance_mm))
 
 
-def _command_html(view: Any) -> str:
+def _command_html(view: Any) -> Markup:
     if view is None:
-        return '<div id="ptwl-command" data-status="" style="padding:4px 0">No command yet.</div>'
-    extra = f" — {view.detail}" if view.detail else ""
-    by = f' <span style="font-weight:400">by {view.sender}</span>' if view.sender else ""
-    return (
-        f'<div id="ptwl-command" data-status="{view.status}" data-id="{view.id or ""}" '
-        f'style="padding:4px 8px;border-left:6px solid {view.color};font-weight:600">'
-        f"{view.behavior.upper()} {view.label}: {view.status}{extra}{by}</div>" + _steps_html(view.steps)
+        return Markup('<div id="ptwl-command" data-status="" style="padding:4px 0">No command yet.</div>')
+    extra = Markup(" — {}").format(view.detail) if view.detail else ""
+    by = Markup(' <span style="font-weight:400">by {}</span>').format(view.sender) if view.sender else ""
+    line = Markup(
+        '<div id="ptwl-command" data-status="{status}" data-id="{id}" '
+        'style="padding:4px 8px;border-left:6px solid {color};font-weight:600">'
+        "{behavior} {label}: {status}{extra}{by}</div>"
+    ).format(
+        status=view.status,
+        id=view.id or "",
+        color=view.color,
+        behavior=view.behavior.upper(),
+        label=view.label,
+        extra=extra,
+        by=by,
     )
+    return line + _steps_html(view.steps)
 
 
-def _steps_html(steps: list[dict[str, Any]]) -> str:
+def _steps_html(steps: list[dict[str, Any]]) -> Markup:
     """A state machine's steps so far: behavior, exit and why the machine chose it."""
     if not steps:
-        return ""
-    rows = "".join(
-        f'<li data-behavior="{s["behavior"]}" data-exit="{s["exit"]}">{s["behavior"].upper()} → '
-        f"{s['exit']} <span style='color:#868e96'>{html.escape(s['why'])}</span></li>"
+        return Markup("")
+    row = Markup(
+        '<li data-behavior="{behavior}" data-exit="{exit}">{shown} → {exit} '
+        "<span style='color:#868e96'>{why}</span></li>"
+    )
+    rows = Markup("").join(
+        row.format(behavior=s["behavior"], exit=s["exit"], shown=s["behavior"].upper(), why=s["why"])
         for s in steps
     )
-    style = "margin:2px 0 4px 20px;font-size:0.85em"
-    return f'<ol id="ptwl-steps" data-count="{len(steps)}" style="{style}">{rows}</ol>'
+    return Markup(
+        '<ol id="ptwl-steps" data-count="{}" style="margin:2px 0 4px 20px;font-size:0.85em">{}</ol>'
+    ).format(len(steps), rows)
 
 
-def _commanded_html(view: Any, distance_mm: float | None = None) -> str:
+def _commanded_html(view: Any, distance_mm: float | None = None) -> Markup:
     """Where the red marker is and how sure: predicted from the delayed port (a relative command
     resolves against the port where it starts), or resolved by the robot."""
     if view is None or view.target is None or view.phase == "done":
-        return '<div id="ptwl-no-commanded"></div>'
+        return Markup('<div id="ptwl-no-commanded"></div>')
     x, y, z = (1000.0 * float(v) for v in view.target[0])
     how = "resolved by the robot" if view.resolved else "relative to the port at start, predicted"
     far = "" if distance_mm is None else f"; {distance_mm:.1f} mm from the port"
-    return (
-        f'<div id="ptwl-commanded" data-resolved="{int(view.resolved)}" data-local="{view.local}" '
-        f'data-distance="{"" if distance_mm is None else f"{distance_mm:.1f}"}" '
-        f'style="padding:0 8px;color:#e03131">commanded target of PTWL {view.label}: '
-        f"({x:.1f}, {y:.1f}, {z:.1f}) mm, {how}{far}</div>"
+    return Markup(
+        '<div id="ptwl-commanded" data-resolved="{}" data-local="{}" data-distance="{}" '
+        'style="padding:0 8px;color:#e03131">commanded target of PTWL {}: '
+        "({:.1f}, {:.1f}, {:.1f}) mm, {}{}</div>"
+    ).format(
+        int(view.resolved),
+        view.local,
+        "" if distance_mm is None else f"{distance_mm:.1f}",
+        view.label,
+        x,
+        y,
+        z,
+        how,
+        far,
     )
 
 
-def _scene_state_html(seq: int | None, arrived: float | None) -> str:
-    return f'<i id="ptwl-scene" data-seq="{seq or ""}" data-arrived="{arrived or ""}"></i>'
+def _history_html(counts: dict[str, Any], views: list[Any]) -> Markup:
+    ptwl = ", ".join(f"{k} {v}" for k, v in sorted(counts["ptwl"].items())) or "none"
+    totals = Markup(
+        "<div><b>PTWL</b> {} ({}) · <b>RWE</b> {} · <b>Dither</b> {}</div>"
+        "<div>peak force {:.1f} N · peak torque {:.2f} N m</div>"
+    ).format(
+        counts["ptwl_total"],
+        ptwl,
+        counts["rwe"],
+        counts["dither"],
+        counts["peak_force"],
+        counts["peak_torque"],
+    )
+    row = Markup("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>")
+    rows = Markup("").join(
+        row.format(
+            v.label,
+            v.behavior,
+            v.status,
+            (v.sender or "script").split(" at console")[0],
+            "" if v.peak_force is None else f"{v.peak_force:.1f}",
+            "" if v.peak_torque is None else f"{v.peak_torque:.2f}",
+            "" if v.duration is None else f"{v.duration:.2f}",
+        )
+        for v in views
+    )
+    head = Markup(
+        "<tr><th>cmd</th><th>behavior</th><th>status</th><th>by</th><th>peak F [N]</th>"
+        "<th>peak τ [N m]</th><th>time [s]</th></tr>"
+    )
+    table = Markup('<table id="ptwl-history" style="font-size:0.8em;text-align:left">{}{}</table>')
+    return Markup('<div style="font-size:0.85em">{}</div>').format(totals) + table.format(head, rows)
+
+
+def _scene_state_html(seq: int | None, arrived: float | None) -> Markup:
+    return Markup('<i id="ptwl-scene" data-seq="{}" data-arrived="{}"></i>').format(seq or "", arrived or "")

@@ -13,6 +13,7 @@ from web.checks import Check
 from web.defaults import ConsoleDefaults
 from web.frames_view import FramesView
 from web.markers import TargetMarker
+from web.markup import show
 from web.panel import Panel, preview_html
 from web.preview import PreviewResult
 from web.preview_marks import PreviewMarks
@@ -118,7 +119,7 @@ class Desk:
             self.preview_marks.hide()
         else:
             self.preview_marks.show(result)
-        self.panel.preview_html.content = preview_html(result, note)
+        show(self.panel.preview_html, preview_html(result, note))
 
     def clear_contemplated(self) -> None:
         self.panel.set_ptwl_displacement(np.zeros(3), np.zeros(3))

@@ -5,7 +5,6 @@ request bodies. The panel only builds widgets and reads them; what a click does 
 app, which keeps this file free of robot and link logic.
 """
 
-import html
 import math
 from typing import Any
 
@@ -14,6 +13,7 @@ import numpy as np
 import viser
 
 from web.defaults import ConsoleDefaults
+from web.markup import Markup, add_html, show
 
 AXES = ("x", "y", "z", "rx", "ry", "rz")
 AMPLITUDE_LABELS = {"torsional": "Amplitude [deg]", "translational": "Amplitude (radius) [mm]"}
@@ -48,7 +48,7 @@ class Panel:
         self.tasks = tasks
         self.stiffness_presets = stiffness_presets
         self._mine = False
-        self.control = gui.add_html(_control_html(False, None), order=FORM_ORDER)
+        self.control = add_html(gui, _control_html(False, None), order=FORM_ORDER)
         self.take_control = gui.add_button(
             "Take control", color="teal", hint="become the one operator who can send", order=FORM_ORDER + 0.1
         )
@@ -92,11 +92,11 @@ class Panel:
                     hint=GAINS_FRAME_HINT,
                 )
                 self.monitor = gui.add_checkbox("Force task monitor", False, hint=MONITOR_HINT)
-            self.ptwl_check = gui.add_html(_check_html("ptwl", "", []))
+            self.ptwl_check = add_html(gui, _check_html("ptwl", "", []))
             self.send_ptwl = gui.add_button("Send cmd", color="blue", disabled=True)
             # IPSE's preview and step: see it run on the twin first; send it a part at a time.
             self.preview = gui.add_button("Preview", color="gray", hint=PREVIEW_HINT)
-            self.preview_html = gui.add_html(preview_html(None))
+            self.preview_html = add_html(gui, preview_html(None))
             self.step_percent = gui.add_number("Step [% of the move]", 25.0, min=1.0, max=100.0, step=5.0)
             self.send_step = gui.add_button("Send step", color="cyan", disabled=True, hint=STEP_HINT)
         with tabs.add_tab("RWE"), gui.add_form(None) as self.forms["rwe"]:
@@ -107,7 +107,7 @@ class Panel:
             self.rwe_frame = gui.add_dropdown(
                 "RWE frame", BUILT_IN_FRAMES, initial_value="base", hint=FRAME_HINT
             )
-            self.rwe_check = gui.add_html(_check_html("rwe", "", []))
+            self.rwe_check = add_html(gui, _check_html("rwe", "", []))
             self.send_rwe = gui.add_button("Send RWE", color="blue", disabled=True)
         with tabs.add_tab("Dither"), gui.add_form(None) as self.forms["dither"]:
             names = list(dither_presets)
@@ -128,13 +128,13 @@ class Panel:
                 "Dither torque limit [N m]", 3.0, min=0.01, step=0.05
             )
             self.dither_monitor = gui.add_checkbox("Dither force task monitor", False, hint=MONITOR_HINT)
-            self.dither_check = gui.add_html(_check_html("dither", "", []))
+            self.dither_check = add_html(gui, _check_html("dither", "", []))
             self.send_dither = gui.add_button("Send dither", color="blue", disabled=True)
             self.dither_preset.on_update(lambda _: self.fill_dither_fields())
             self.dither_mode.on_update(lambda _: self._label_amplitude())
             self.fill_dither_fields()
         with tabs.add_tab("Frames"):  # task frames: named axes to command in (robot_sim/task_frames.py)
-            self.frames_list = gui.add_html(frames_html([]))
+            self.frames_list = add_html(gui, frames_html([]))
             self.new_frame_name = gui.add_text("New frame name", "frame1", hint=FRAME_NAME_HINT)
             self.add_frame_at_tool = gui.add_button(
                 "Add at tool pose",
@@ -153,15 +153,15 @@ class Panel:
         with tabs.add_tab("Tasks"):  # a task's onboard state machine, run as one command
             names = list(tasks) or ["(none)"]
             self.task = gui.add_dropdown("Task", names, initial_value=names[0])
-            self.task_summary = gui.add_html(_summary_html(tasks.get(names[0], "")))
-            self.task_check = gui.add_html(_check_html("state_machine", "", []))
+            self.task_summary = add_html(gui, _summary_html(tasks.get(names[0], "")))
+            self.task_check = add_html(gui, _check_html("state_machine", "", []))
             self.send_task = gui.add_button(
                 "Run state machine", color="blue", disabled=True, hint="STOP aborts it like any command"
             )
             self.task.on_update(lambda _: self._show_task())
             # The tool tasks' gripper (paper 2.3.3-2.3.4): refused on a scene whose tool has none.
             self.gripper_action = gui.add_dropdown("Gripper", ("close", "open"), initial_value="close")
-            self.gripper_check = gui.add_html(_check_html("gripper", "", []))
+            self.gripper_check = add_html(gui, _check_html("gripper", "", []))
             self.send_gripper = gui.add_button("Send gripper", color="blue", disabled=True)
 
         initial = defaults.stiffness_preset if defaults.stiffness_preset in stiffness_presets else None
@@ -171,7 +171,7 @@ class Panel:
             initial_value=initial or next(iter(stiffness_presets)),
             order=FORM_ORDER + 0.3,
         )
-        self.stiffness_info = gui.add_html(self._stiffness_html(), order=FORM_ORDER + 0.4)
+        self.stiffness_info = add_html(gui, self._stiffness_html(), order=FORM_ORDER + 0.4)
         self.stiffness.on_update(lambda _: self._show_stiffness())
         # Per request type, in one place: its Send button, its check line, how it is made, the
         # inputs it is made from.
@@ -249,12 +249,12 @@ class Panel:
         self._mine = mine
         self.refresh_buttons()
         self.take_control.visible = not mine
-        self.control.content = _control_html(mine, holder)
+        show(self.control, _control_html(mine, holder))
 
     def show_check(self, behavior: str, errors: str, warnings: list[str], watchdog_s: float | None) -> None:
         """What the robot's own rules say of the request as typed; Send is off while it is invalid."""
         self._valid[behavior] = not errors
-        self._checks[behavior].content = _check_html(behavior, errors, warnings)
+        show(self._checks[behavior], _check_html(behavior, errors, warnings))
         if behavior == "ptwl" and watchdog_s is not None and self.watchdog_auto.value:
             _set(self.watchdog, round(watchdog_s, 3))
         self.watchdog.disabled = bool(self.watchdog_auto.value)
@@ -276,7 +276,7 @@ class Panel:
         self.gains_frame.options = [PRESET_FRAME, *names]
         deletable = [f["name"] for f in frames if f["source"] == "operator"] or ["(none)"]
         self.delete_frame_name.options = deletable
-        self.frames_list.content = frames_html(frames)
+        show(self.frames_list, frames_html(frames))
         self.refresh_buttons()
 
     def typed_frame_pose(self) -> dict[str, list[float]]:
@@ -288,14 +288,14 @@ class Panel:
         position = np.asarray(self.new_frame_position.value, dtype=float) / 1000.0
         return {"position": position.tolist(), "quaternion": quaternion.tolist()}
 
-    def _stiffness_html(self) -> str:
+    def _stiffness_html(self) -> Markup:
         preset = self.stiffness_presets[str(self.stiffness.value)]
         return gains_html(
             preset["stiffness"], preset["damping"], "ptwl-preset", preset.get("description", "")
         )
 
     def _show_stiffness(self) -> None:
-        self.stiffness_info.content = self._stiffness_html()
+        show(self.stiffness_info, self._stiffness_html())
 
     def show_scene_task(self, scene: str) -> None:
         """Pick the loaded scene's task (each task's machine runs only on its own scene)."""
@@ -304,7 +304,7 @@ class Panel:
             self._show_task()
 
     def _show_task(self) -> None:
-        self.task_summary.content = _summary_html(self.tasks.get(str(self.task.value), ""))
+        show(self.task_summary, _summary_html(self.tasks.get(str(self.task.value), "")))
 
     def _label_amplitude(self) -> None:
         self.dither_amplitude.label = AMPLITUDE_LABELS[str(self.dither_mode.value)]
@@ -406,20 +406,21 @@ def _set(handle: Any, value: Any) -> None:
     handle.value = value
 
 
-def _control_html(mine: bool, holder: str | None) -> str:
+def _control_html(mine: bool, holder: str | None) -> Markup:
     if mine:
-        text, color = "You have control: your commands go to the robot.", "#2f9e44"
+        text, color = Markup("You have control: your commands go to the robot."), "#2f9e44"
     elif holder:
-        text, color = f"Watching: <b>{holder}</b> has control. Your fields are your own.", "#868e96"
+        text = Markup("Watching: <b>{}</b> has control. Your fields are your own.").format(holder)
+        color = "#868e96"
     else:
-        text, color = "Watching: nobody has control. Take it to send.", "#868e96"
-    return (
-        f'<div id="ptwl-control" data-mine="{int(mine)}" data-holder="{holder or ""}" '
-        f'style="padding:4px 8px;border-left:6px solid {color}">{text}</div>'
-    )
+        text, color = Markup("Watching: nobody has control. Take it to send."), "#868e96"
+    return Markup(
+        '<div id="ptwl-control" data-mine="{}" data-holder="{}" '
+        'style="padding:4px 8px;border-left:6px solid {}">{}</div>'
+    ).format(int(mine), holder or "", color, text)
 
 
-def gains_html(stiffness: list[float], damping: list[float], element_id: str, title: str = "") -> str:
+def gains_html(stiffness: list[float], damping: list[float], element_id: str, title: str = "") -> Markup:
     """K, B and the time constant tau = B/K per axis group (translation, rotation)."""
     k, b = np.asarray(stiffness, dtype=float), np.asarray(damping, dtype=float)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -431,58 +432,67 @@ def gains_html(stiffness: list[float], damping: list[float], element_id: str, ti
         taus = ", ".join("∞" if not np.isfinite(v) else f"{v:.2f}" for v in tau[sl])
         return f"{name}: K ({ks}) {k_unit} · B ({bs}) {b_unit} · τ ({taus}) s"
 
-    data_k, data_b = ",".join(f"{v:g}" for v in k), ",".join(f"{v:g}" for v in b)
-    return (
-        f'<div id="{element_id}" data-k="{data_k}" data-b="{data_b}" '
-        f'title="{html.escape(title)}" style="font-size:0.8em;color:#495057;padding:0 4px">'
-        f"{row('translation', slice(0, 3), 'N/m', 'N s/m')}<br>"
-        f"{row('rotation', slice(3, 6), 'N m/rad', 'N m s/rad')}</div>"
+    return Markup(
+        '<div id="{}" data-k="{}" data-b="{}" title="{}" style="font-size:0.8em;color:#495057;padding:0 4px">'
+        "{}<br>{}</div>"
+    ).format(
+        element_id,
+        ",".join(f"{v:g}" for v in k),
+        ",".join(f"{v:g}" for v in b),
+        title,
+        row("translation", slice(0, 3), "N/m", "N s/m"),
+        row("rotation", slice(3, 6), "N m/rad", "N m s/rad"),
     )
 
 
-def _summary_html(summary: str) -> str:
-    return f'<div style="font-size:0.85em;padding:0 4px">{html.escape(summary)}</div>'
+def _summary_html(summary: str) -> Markup:
+    return Markup('<div style="font-size:0.85em;padding:0 4px">{}</div>').format(summary)
 
 
-def _check_html(behavior: str, errors: str, warnings: list[str]) -> str:
+def _check_html(behavior: str, errors: str, warnings: list[str]) -> Markup:
     if errors:
         body, color = f"will be refused: {errors}", "#e03131"
     elif warnings:
         body, color = "accepted, but: " + " ".join(warnings), "#e8590c"
     else:
         body, color = "within the robot's limits", "#868e96"
-    return (
-        f'<div id="ptwl-check-{behavior}" data-valid="{int(not errors)}" data-warnings="{len(warnings)}" '
-        f'style="font-size:0.8em;color:{color};padding:0 4px">{html.escape(body)}</div>'
-    )
+    return Markup(
+        '<div id="ptwl-check-{}" data-valid="{}" data-warnings="{}" '
+        'style="font-size:0.8em;color:{};padding:0 4px">{}</div>'
+    ).format(behavior, int(not errors), len(warnings), color, body)
 
 
-def frames_html(frames: list[dict[str, Any]]) -> str:
+def frames_html(frames: list[dict[str, Any]]) -> Markup:
     """The task frames the robot has, each with where it came from."""
-    names = ",".join(f["name"] for f in frames)
-    rows = "".join(
-        f"<li><b>{html.escape(f['name'])}</b> "
-        f"({html.escape(f['source'])}: {html.escape(f['defined_by'])})</li>"
-        for f in frames
+    row = Markup("<li><b>{}</b> ({}: {})</li>")
+    rows = Markup("").join(row.format(f["name"], f["source"], f["defined_by"]) for f in frames)
+    body = (
+        Markup("<ul style='margin:0;padding-left:16px'>{}</ul>").format(rows)
+        if frames
+        else "only tool and base"
     )
-    body = f"<ul style='margin:0;padding-left:16px'>{rows}</ul>" if frames else "only tool and base"
-    return f'<div id="ptwl-frames" data-names="{html.escape(names)}" style="font-size:0.85em">{body}</div>'
+    return Markup('<div id="ptwl-frames" data-names="{}" style="font-size:0.85em">{}</div>').format(
+        ",".join(f["name"] for f in frames), body
+    )
 
 
-def preview_html(result: Any, note: str = "") -> str:
+def preview_html(result: Any, note: str = "") -> Markup:
     """What the preview says (a PreviewResult, with `note` on where it started; None: `note`, why
     there is none): exit, when, peak."""
     if result is None:
-        return (
-            '<div id="ptwl-preview" data-exit="" style="color:#868e96;font-size:0.85em">'
-            f"{html.escape(note or 'no preview yet')}</div>"
-        )
-    started = f"; {html.escape(note)}" if note else ""
-    return (
-        f'<div id="ptwl-preview" data-exit="{result.exit}" data-duration="{result.duration_s:.3f}" '
-        f'data-peak-force="{result.peak_force_n:.3f}" data-compute-s="{result.compute_s:.3f}" '
-        'style="font-size:0.85em">'
-        f"preview: <b>{html.escape(result.exit)}</b> after {result.duration_s:.2f} s, "
-        f"peak {result.peak_force_n:.1f} N / {result.peak_torque_nm:.2f} N m "
-        f'<span style="color:#868e96">(computed in {result.compute_s:.2f} s{started})</span></div>'
+        return Markup(
+            '<div id="ptwl-preview" data-exit="" style="color:#868e96;font-size:0.85em">{}</div>'
+        ).format(note or "no preview yet")
+    return Markup(
+        '<div id="ptwl-preview" data-exit="{exit}" data-duration="{duration:.3f}" '
+        'data-peak-force="{force:.3f}" data-compute-s="{compute:.3f}" style="font-size:0.85em">'
+        "preview: <b>{exit}</b> after {duration:.2f} s, peak {force:.1f} N / {torque:.2f} N m "
+        '<span style="color:#868e96">(computed in {compute:.2f} s{started})</span></div>'
+    ).format(
+        exit=result.exit,
+        duration=result.duration_s,
+        force=result.peak_force_n,
+        torque=result.peak_torque_nm,
+        compute=result.compute_s,
+        started=f"; {note}" if note else "",
     )

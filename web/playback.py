@@ -14,6 +14,7 @@ import httpx
 import viser
 
 from guard.access import bearer_header
+from web.markup import Markup, add_html, show
 from web.worker import Worker
 
 POLL_S = 0.25
@@ -44,7 +45,7 @@ class Playback(Worker):
         self.status = status
         speeds = [f"{s:g}x" for s in status["speeds"]]
         with gui.add_folder("Replay", expand_by_default=True, order=PLAYBACK_ORDER):
-            self.title = gui.add_html(_title_html(status))
+            self.title = add_html(gui, _title_html(status))
             self.play = gui.add_button("Pause" if status["playing"] else "Play")
             self.speed = gui.add_dropdown("Speed", speeds, initial_value=f"{status['speed']:g}x")
             self.slider = gui.add_slider(
@@ -95,7 +96,7 @@ class Playback(Worker):
         self.status = status
         self.play.label = "Pause" if status["playing"] else "Play"
         cast(Any, self.slider).value = round(status["position_s"], 2)  # no client: not a seek
-        self.title.content = _title_html(status)
+        show(self.title, _title_html(status))
 
 
 def _slider_end(duration_s: float) -> float:
@@ -103,13 +104,17 @@ def _slider_end(duration_s: float) -> float:
     return math.floor(duration_s * 100.0) / 100.0
 
 
-def _title_html(status: dict[str, Any]) -> str:
-    state = "playing" if status["playing"] else "paused"
-    name = status["file"].rsplit("/", 1)[-1]
-    return (
-        f'<div id="ptwl-replay" data-position="{status["position_s"]:.3f}" '
-        f'data-playing="{int(status["playing"])}" '
-        f'data-speed="{status["speed"]:g}" style="padding:2px 8px;border-left:6px solid #7048e8">'
-        f"<b>Replay</b> of {name}: {status['position_s']:.2f} / {status['duration_s']:.2f} s, "
-        f"{state} at {status['speed']:g}x. Nothing can be sent to a recording.</div>"
+def _title_html(status: dict[str, Any]) -> Markup:
+    return Markup(
+        '<div id="ptwl-replay" data-position="{position:.3f}" data-playing="{playing}" '
+        'data-speed="{speed:g}" style="padding:2px 8px;border-left:6px solid #7048e8">'
+        "<b>Replay</b> of {name}: "
+        "{position:.2f} / {duration:.2f} s, {state} at {speed:g}x. Nothing can be sent to a recording.</div>"
+    ).format(
+        position=status["position_s"],
+        playing=int(status["playing"]),
+        speed=status["speed"],
+        name=status["file"].rsplit("/", 1)[-1],
+        duration=status["duration_s"],
+        state="playing" if status["playing"] else "paused",
     )

@@ -14,6 +14,8 @@ from typing import Any
 import numpy as np
 import viser
 
+from web.markup import Markup, add_html, show
+
 MIN_FORCE_N = 5.0
 MIN_TORQUE_NM = 0.5
 XYZ_COLORS = ("#e03131", "#2f9e44", "#1971c2")
@@ -96,7 +98,7 @@ class XyzPlot:
 class WrenchPlots:
     def __init__(self, gui: viser.GuiApi, window_s: float) -> None:
         self.window_s = window_s
-        self.summary = gui.add_html('<div id="ptwl-plot" data-samples="0">no force/torque yet</div>')
+        self.summary = add_html(gui, Markup('<div id="ptwl-plot" data-samples="0">no force/torque yet</div>'))
         self.force = XyzPlot(gui, "f", "N", MIN_FORCE_N)
         self.torque = XyzPlot(gui, "t", "N m", MIN_TORQUE_NM)
         self._samples: deque[tuple[float, ...]] = deque()
@@ -138,22 +140,31 @@ class WrenchPlots:
         force_limit, torque_limit = self.thresholds if self.thresholds else (None, None)
         self.force.show(t, data[1:4], force_limit, marks)
         self.torque.show(t, data[4:7], torque_limit, marks)
-        self.summary.content = self._summary(t, data[1:7, -1])
+        show(self.summary, self._summary(t, data[1:7, -1]))
 
-    def _summary(self, t: np.ndarray, wrench: np.ndarray) -> str:
+    def _summary(self, t: np.ndarray, wrench: np.ndarray) -> Markup:
         """The current values in words, and (data-*) what the plots show, for tests."""
         thresholds = self.thresholds
         f, tau = wrench[0:3], wrench[3:6]
-        f_limit = f" of {thresholds[0]:g} N limit" if thresholds else ""
-        t_limit = f" of {thresholds[1]:g} N m limit" if thresholds else ""
-        attrs = (
-            f'data-samples="{len(t)}" data-t0="{t[0]:.3f}" data-t1="{t[-1]:.3f}" data-clears="{self.clears}" '
-            f'data-force-range="{self.force.y_range[0]:.3f},{self.force.y_range[1]:.3f}" '
-            f'data-threshold="{thresholds[0] if thresholds else ""}" data-marks="{len(self._marks)}"'
-        )
-        return (
-            f'<div id="ptwl-plot" {attrs} style="font-size:0.85em;font-variant-numeric:tabular-nums">'
-            f"f ({f[0]:+.2f}, {f[1]:+.2f}, {f[2]:+.2f}) N, |f| {np.linalg.norm(f):.2f} N{f_limit}<br>"
-            f"τ ({tau[0]:+.3f}, {tau[1]:+.3f}, {tau[2]:+.3f}) N m, |τ| {np.linalg.norm(tau):.3f} N m{t_limit}"
-            "</div>"
+        return Markup(
+            '<div id="ptwl-plot" data-samples="{samples}" data-t0="{t0:.3f}" data-t1="{t1:.3f}" '
+            'data-clears="{clears}" data-force-range="{lo:.3f},{hi:.3f}" data-threshold="{threshold}" '
+            'data-marks="{marks}" style="font-size:0.85em;font-variant-numeric:tabular-nums">'
+            "f ({f[0]:+.2f}, {f[1]:+.2f}, {f[2]:+.2f}) N, |f| {f_norm:.2f} N{f_limit}<br>"
+            "τ ({tau[0]:+.3f}, {tau[1]:+.3f}, {tau[2]:+.3f}) N m, |τ| {tau_norm:.3f} N m{t_limit}</div>"
+        ).format(
+            samples=len(t),
+            t0=t[0],
+            t1=t[-1],
+            clears=self.clears,
+            lo=self.force.y_range[0],
+            hi=self.force.y_range[1],
+            threshold=thresholds[0] if thresholds else "",
+            marks=len(self._marks),
+            f=f,
+            f_norm=np.linalg.norm(f),
+            f_limit=f" of {thresholds[0]:g} N limit" if thresholds else "",
+            tau=tau,
+            tau_norm=np.linalg.norm(tau),
+            t_limit=f" of {thresholds[1]:g} N m limit" if thresholds else "",
         )

@@ -6,7 +6,6 @@ delay): a blackout or a dead link shows as a growing age that turns amber, then 
 frozen "1.50 s old - connected".
 """
 
-import html
 import math
 import time
 from collections.abc import Callable
@@ -15,6 +14,7 @@ from typing import Any, Literal
 
 import viser
 
+from web.markup import Markup, add_html, show
 from web.twin import describe_error
 from web.worker import Worker
 
@@ -25,13 +25,13 @@ BAR_WIDTH_PX, BAR_HEIGHT_PX = 500, 235
 PAGE_DEAD_AFTER_S = 2.5  # no bar update for this long: the console or the page's socket is gone
 # A page cannot tick when the console that feeds it is dead, so the page itself keeps time: every
 # update re-creates this banner, restarting its hidden CSS countdown; if updates stop, it appears.
-DEAD_MAN_HTML = (
-    "<style>@keyframes ptwl-dead { to { visibility: visible; max-height: 4em; } }</style>"
+DEAD_MAN_HTML = Markup(
+    "<style>@keyframes ptwl-dead {{ to {{ visibility: visible; max-height: 4em; }} }}</style>"
     '<div id="ptwl-dead" style="visibility:hidden;max-height:0;overflow:hidden;'
-    f"animation:ptwl-dead 0s linear {PAGE_DEAD_AFTER_S}s forwards;"
+    "animation:ptwl-dead 0s linear {}s forwards;"
     'background:#e03131;color:white;font-weight:700;padding:2px 6px">'
     "CONSOLE NOT RESPONDING: nothing on this page is current</div>"
-)
+).format(PAGE_DEAD_AFTER_S)
 Level = Literal["fresh", "late", "stale"]
 LEVEL_COLORS = {"fresh": "#2f9e44", "late": "#f08c00", "stale": "#e03131"}
 
@@ -78,11 +78,11 @@ class StatusBar(Worker):
         self._on_level = on_level
         self.panel = gui.add_panel()
         with self.panel.add_tab("Robot status"):
-            self.html = gui.add_html(_render(inputs(), *_judge(inputs(), time.time())))
+            self.html = add_html(gui, _render(inputs(), *_judge(inputs(), time.time())))
             self.stop = gui.add_button(
                 "STOP", color="red", hint="abort the running command, drop the queue, hold (anyone may stop)"
             )
-            self.stop_html = gui.add_html(_stop_html(StopState()))
+            self.stop_html = add_html(gui, _stop_html(StopState()))
         # Over the 3D view's bottom right, beside the docked control panel (notifications stack
         # top left, the arm stands mid-view): it never scrolls away, and no dropdown of the
         # control panel can cover STOP.
@@ -92,70 +92,74 @@ class StatusBar(Worker):
 
     def show_stop(self, phase: Literal["idle", "pending", "confirmed", "failed"], text: str) -> None:
         """STOP's own state: pending until the robot confirms; a failure stays until a STOP works."""
-        self.stop_html.content = _stop_html(StopState(phase, text))
+        show(self.stop_html, _stop_html(StopState(phase, text)))
 
     def _run(self) -> None:
         shown: Level | None = None
         while not self._closed.wait(TICK_S):
             inputs = self._inputs()
             age, level = _judge(inputs, time.time())
-            self.html.content = _render(inputs, age, level)
+            show(self.html, _render(inputs, age, level))
             if level != shown:
                 shown = level
                 self._on_level(level)
 
 
-def _render(inputs: BarInputs, age: float | None, level: Level) -> str:
+def _render(inputs: BarInputs, age: float | None, level: Level) -> Markup:
     color = LEVEL_COLORS[level]
     state = inputs.state
     seq = state["seq"] if state else ""
     if state is None:
-        robot = "no robot state yet"
+        robot = Markup("no robot state yet")
     else:
         x, y, z = (1000.0 * v for v in state["port"]["position"])
-        robot = (
-            f"robot state #{seq} is <b>{age:.2f} s old</b> · port ({x:.1f}, {y:.1f}, {z:.1f}) mm"
-            f" · scene <b>{html.escape(state['scene'])}</b>"
-        )
-    stale = " · <b>STALE</b>: the robot may have moved since" if level == "stale" else ""
-    link = html.escape(inputs.link_text)
-    rtt = f"link round trip {inputs.rtt_s:g} s · {link}"
-    attrs = (
-        f'data-seq="{seq}" data-arrived="{inputs.arrived or ""}" data-age="{"" if age is None else age}"'
-        f' data-level="{level}" data-link="{int(inputs.link_up)}" data-rtt="{inputs.rtt_s}"'
-    )
-    return (
-        f'<div id="ptwl-bar" style="border-left:8px solid {color};padding:2px 8px;font-size:0.85em">'
-        f"{DEAD_MAN_HTML}"
-        f'<div id="ptwl-telemetry" {attrs}>{robot}{stale}</div>'
-        f'<div style="color:{color}">{rtt}{html.escape(inputs.note)}</div>'
-        f'<div id="ptwl-running">{html.escape(inputs.command)}</div>'
-        f"{_prediction_html(inputs.predicted_port, inputs.prediction_error, inputs.twin_note)}"
-        f"{_task_html(state.get('task') if state else None)}</div>"
+        robot = Markup(
+            "robot state #{} is <b>{:.2f} s old</b> · port ({:.1f}, {:.1f}, {:.1f}) mm · scene <b>{}</b>"
+        ).format(seq, age, x, y, z, state["scene"])
+    stale = Markup(" · <b>STALE</b>: the robot may have moved since") if level == "stale" else ""
+    return Markup(
+        '<div id="ptwl-bar" style="border-left:8px solid {color};padding:2px 8px;font-size:0.85em">'
+        "{dead}"
+        '<div id="ptwl-telemetry" data-seq="{seq}" data-arrived="{arrived}" data-age="{age}" '
+        'data-level="{level}" data-link="{link_up}" data-rtt="{rtt}">{robot}{stale}</div>'
+        '<div style="color:{color}">link round trip {rtt:g} s · {link}{note}</div>'
+        '<div id="ptwl-running">{command}</div>{prediction}{task}</div>'
+    ).format(
+        color=color,
+        dead=DEAD_MAN_HTML,
+        seq=seq,
+        arrived=inputs.arrived or "",
+        age="" if age is None else age,
+        level=level,
+        link_up=int(inputs.link_up),
+        rtt=inputs.rtt_s,
+        robot=robot,
+        stale=stale,
+        link=inputs.link_text,
+        note=inputs.note,
+        command=inputs.command,
+        prediction=_prediction_html(inputs.predicted_port, inputs.prediction_error, inputs.twin_note),
+        task=_task_html(state.get("task") if state else None),
     )
 
 
 def _prediction_html(
     port: tuple[float, float, float] | None, error: tuple[float, float] | None, note: str = ""
-) -> str:
+) -> Markup:
     """The ground twin's line: where it puts the port now, and how far off it has been (or why
     there is no prediction)."""
     if port is None:
-        return (
-            '<div id="ptwl-prediction" data-x="" data-error-mm="" data-max-mm="" style="color:#868e96">'
-            f"{html.escape(note)}</div>"
-        )
+        return Markup(
+            '<div id="ptwl-prediction" data-x="" data-error-mm="" data-max-mm="" '
+            'style="color:#868e96">{}</div>'
+        ).format(note)
     x, y, z = (1000.0 * v for v in port)
-    judged = describe_error(error)
-    data = (
-        'data-error-mm="" data-max-mm=""'
-        if error is None
-        else f'data-error-mm="{1000.0 * error[0]:.3f}" data-max-mm="{1000.0 * error[1]:.3f}"'
-    )
-    return (
-        f'<div id="ptwl-prediction" data-x="{x:.2f}" data-y="{y:.2f}" data-z="{z:.2f}" {data} '
-        f'style="color:#0c8599">twin: port ({x:.1f}, {y:.1f}, {z:.1f}) mm · {judged}</div>'
-    )
+    error_mm, max_mm = ("", "") if error is None else (f"{1000.0 * error[0]:.3f}", f"{1000.0 * error[1]:.3f}")
+    return Markup(
+        '<div id="ptwl-prediction" data-x="{x:.2f}" data-y="{y:.2f}" data-z="{z:.2f}" '
+        'data-error-mm="{error}" data-max-mm="{max}" style="color:#0c8599">'
+        "twin: port ({x:.1f}, {y:.1f}, {z:.1f}) mm · {judged}</div>"
+    ).format(x=x, y=y, z=z, error=error_mm, max=max_mm, judged=describe_error(error))
 
 
 def _judge(inputs: BarInputs, now: float) -> tuple[float | None, Level]:
@@ -175,37 +179,44 @@ def _fraction_done(progress: float | None, target: float, at_most: bool) -> floa
     return 0.0 if target == 0 else max(0.0, min(1.0, progress / target))
 
 
-def _task_html(task: dict[str, Any] | None) -> str:
+def _task_html(task: dict[str, Any] | None) -> Markup:
     if not task:
-        return '<div id="ptwl-task" data-success="" data-progress="">task: unknown</div>'
+        return Markup('<div id="ptwl-task" data-success="" data-progress="">task: unknown</div>')
     progress, target, unit = task["progress"], task["target"], task["unit"]
     # Three significant digits of the target's size (12.3 / 30 mm, 0.00 / 5 N): no noise digits.
     decimals = max(0, 2 - math.floor(math.log10(abs(target)))) if target else 3
     shown = "—" if progress is None else f"{round(progress, decimals) + 0.0:.{decimals}f}"  # never "-0"
     fraction = _fraction_done(progress, target, bool(task.get("at_most")))
     badge = (
-        '<span style="background:#2f9e44;color:white;padding:0 6px;border-radius:4px">SUCCESS</span>'
+        Markup('<span style="background:#2f9e44;color:white;padding:0 6px;border-radius:4px">SUCCESS</span>')
         if task["success"]
-        else '<span style="color:#868e96">not yet</span>'
+        else Markup('<span style="color:#868e96">not yet</span>')
     )
-    return (
-        f'<div id="ptwl-task" data-success="{int(task["success"])}" data-progress="{progress}" '
-        f'data-target="{target}" title="{html.escape(task["predicate"])}">'
-        f"task: {shown} / {target:g} {html.escape(unit)} {badge}"
-        f'<div style="height:6px;background:#e9ecef;border-radius:3px">'
-        f'<div style="height:6px;width:{100 * fraction:.0f}%;background:#1971c2;border-radius:3px"></div>'
+    return Markup(
+        '<div id="ptwl-task" data-success="{success}" data-progress="{progress}" data-target="{target}" '
+        'title="{predicate}">task: {shown} / {target:g} {unit} {badge}'
+        '<div style="height:6px;background:#e9ecef;border-radius:3px">'
+        '<div style="height:6px;width:{width:.0f}%;background:#1971c2;border-radius:3px"></div>'
         "</div></div>"
+    ).format(
+        success=int(task["success"]),
+        progress=progress,
+        target=target,
+        predicate=task["predicate"],
+        shown=shown,
+        unit=unit,
+        badge=badge,
+        width=100 * fraction,
     )
 
 
-def _stop_html(stop: StopState) -> str:
+def _stop_html(stop: StopState) -> Markup:
     styles = {
         "idle": "color:#868e96",
         "pending": "color:white;background:#f08c00;font-weight:700",
         "confirmed": "color:#2f9e44;font-weight:600",
         "failed": "color:white;background:#e03131;font-weight:700",
     }
-    return (
-        f'<div id="ptwl-stop" data-phase="{stop.phase}" style="padding:2px 6px;{styles[stop.phase]}">'
-        f"{html.escape(stop.text)}</div>"
+    return Markup('<div id="ptwl-stop" data-phase="{}" style="padding:2px 6px;{}">{}</div>').format(
+        stop.phase, styles[stop.phase], stop.text
     )

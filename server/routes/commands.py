@@ -11,6 +11,7 @@ from robot_sim.params import GripperParams, PtwlParams, StateMachineParams
 from server.models import (
     NOT_FOUND_RESPONSES,
     QUEUE_FULL_RESPONSES,
+    SENDER_DOC,
     SENDER_HEADER,
     SENDER_PATTERN,
     SIM_RESPONSES,
@@ -43,7 +44,7 @@ async def submit_command(
         Header(
             alias=SENDER_HEADER,
             pattern=SENDER_PATTERN,
-            description="who sends it (1-64 printable ASCII characters), kept in its record",
+            description=SENDER_DOC,
         ),
     ] = None,
 ) -> CommandAccepted:
