@@ -4,15 +4,22 @@ A trial is what ran on one scene load: from a geometry record (start, reset, a f
 to the next. Its figures come from the behaviors it ran (`/steps`, each with its sim-time start,
 end and peaks) by the same rule the tasks and sweeps use (robot_sim.policies.run), and its
 success from the scene's predicate in the last telemetry before the next load.
+
+The file is streamed: only its scene loads, steps and task records are decoded, and a trial's
+steps are let go once its figures are made, so memory holds one trial's steps at a time.
 """
 
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from recording import topics
-from recording.reader import Recording
+from recording.reader import Recorded, Recording, RecordingError, Scan
 from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
 from robot_sim.policies.run import paper_rows, report_metrics
+
+REPORTED = (topics.GEOMETRY.name, topics.STEPS.name, topics.TASK.name)  # all a report decodes
 
 
 @dataclass
@@ -21,34 +28,84 @@ class RecordedTrial:
     start_ns: int
     steps: list[dict[str, Any]] = field(default_factory=list)
     task: dict[str, Any] | None = None  # the last /task message
+    figures: dict[str, Any] | None = None  # its metrics, made when the trial ended
 
     @property
     def success(self) -> bool:
-        return bool(self.task and self.task.get("success"))
+        return bool(isinstance(self.task, dict) and self.task.get("success"))
 
     def metrics(self) -> dict[str, Any]:
-        return report_metrics([_report(step) for step in self.steps])
+        if self.figures is None:
+            try:
+                self.figures = report_metrics([_report(step) for step in self.steps])
+            except (KeyError, TypeError, ValueError, AttributeError, IndexError) as err:
+                raise RecordingError(
+                    f"a /steps message of the {self.scene} trial at {self.start_ns} ns is no ptwl.Step "
+                    f"({type(err).__name__}: {err})"
+                ) from None
+        return self.figures
 
 
-def trials(recording: Recording) -> list[RecordedTrial]:
-    """Every scene load that ran at least one behavior, in order."""
+@dataclass
+class Summary:
+    """What a report says of a file: where it came from, how much it holds, its trials."""
+
+    path: Path
+    metadata: dict[str, dict[str, str]]
+    complete: bool
+    problem: str
+    count: int  # messages in the file, every topic
+    trials: list[RecordedTrial]
+
+
+def summarize(source: Path | Recording) -> Summary:
+    """A file, streamed; or a recording already read (tests)."""
+    if isinstance(source, Recording):
+        found = _named(source.path, lambda: trials(source.messages))
+        return Summary(source.path, source.metadata, source.complete, source.problem, source.count, found)
+    scan = Scan(source, REPORTED)
+    found = _named(source, lambda: trials(scan))
+    return Summary(source, scan.metadata, scan.complete, scan.problem, scan.count, found)
+
+
+def trials(messages: Iterable[Recorded] | Recording) -> list[RecordedTrial]:
+    """Every scene load that ran at least one behavior, in order, its figures made."""
+    if isinstance(messages, Recording):
+        messages = messages.messages
     found: list[RecordedTrial] = []
-    for message in recording.messages:
+
+    def end_trial() -> None:  # its figures made and its steps let go; a load that ran nothing dropped
+        if found and found[-1].figures is None:
+            if found[-1].steps:
+                found[-1].metrics()
+                found[-1].steps = []
+            else:
+                found.pop()
+
+    for message in messages:
+        value = message.value
         if message.topic == topics.GEOMETRY.name:
-            found.append(RecordedTrial(message.value["scene"], message.log_time_ns))
+            if not isinstance(value, dict) or not isinstance(value.get("scene"), str):
+                raise RecordingError(
+                    f"the {message.topic} message at {message.log_time_ns} ns names no scene"
+                )
+            end_trial()
+            found.append(RecordedTrial(value["scene"], message.log_time_ns))
         elif message.topic == topics.STEPS.name and found:
-            found[-1].steps.append(message.value)
+            found[-1].steps.append(value)
         elif message.topic == topics.TASK.name and found:
-            found[-1].task = message.value
-    return [t for t in found if t.steps]
+            found[-1].task = value
+    end_trial()
+    return found
 
 
-def report_text(recording: Recording) -> str:
-    found = trials(recording)
-    source = recording.metadata.get("ptwl", {}).get("source", "unknown source")
-    lines = [f"{recording.path}: {source}, {len(recording.messages)} messages"]
-    if not recording.complete:
-        lines.append(f"  cut short ({recording.problem or 'no end record'}): read up to the last whole chunk")
+def report_text(source: Path | Recording) -> str:
+    summary = summarize(source)
+    found = summary.trials
+    source_name = summary.metadata.get("ptwl", {}).get("source", "unknown source")
+    lines = [f"{summary.path}: {source_name}, {summary.count} messages"]
+    if not summary.complete:
+        lines.append(f"  cut short ({summary.problem or 'no end record'}): read up to the last whole chunk")
     if not found:
         lines.append("  no behavior ran: nothing to report")
         return "\n".join(lines) + "\n"
@@ -71,10 +128,22 @@ def report_text(recording: Recording) -> str:
     return "\n".join(lines) + "\n"
 
 
-def report_json(recording: Recording) -> list[dict[str, Any]]:
+def report_json(source: Path | Recording) -> list[dict[str, Any]]:
     return [
-        {"scene": t.scene, "success": t.success, "task": t.task, **t.metrics()} for t in trials(recording)
+        {"scene": t.scene, "success": t.success, "task": t.task, **t.metrics()}
+        for t in summarize(source).trials
     ]
+
+
+def _named(path: Path, make: Callable[[], list[RecordedTrial]]) -> list[RecordedTrial]:
+    """The trials, or an error that names the file (the reader's errors already do)."""
+    try:
+        found = make()
+    except RecordingError as err:
+        if str(err).startswith(f"{path}:"):
+            raise
+        raise RecordingError(f"{path}: {err}") from None
+    return found
 
 
 def _report(step: dict[str, Any]) -> BehaviorReport:
