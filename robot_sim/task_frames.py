@@ -7,6 +7,8 @@ typed pose. A frame is a pose in base coordinates; commands use its axes. A disp
 task frame is along those axes, applied at the port, as `base` is.
 
 Frames belong to the loaded scene: a reset brings back the scene's own and drops the operator's.
+An operator may add at most MAX_OPERATOR_FRAMES to a scene (the scene's own, from config, do not
+count: they are few and fixed by the config file).
 """
 
 from collections.abc import Iterable
@@ -26,11 +28,19 @@ from robot_sim.params import FRAME_FIELDS, StrictModel, Vec3
 from robot_sim.pose_math import rotation_matrix
 
 BUILT_IN = ("tool", "base")
+# Operator frames a scene may hold at once. A task uses a handful (a peg's axis, a contact's
+# normal, a few via points); 64 is ample margin and keeps every list a console draws and every
+# scene-load message small (~20 KB). Without a cap, 2,000 frames made each add a 286 KB message.
+MAX_OPERATOR_FRAMES = 64
 Source = Literal["scene", "operator"]
 
 
 class FrameInUseError(RobotSimError):
     """A frame that cannot be taken away or replaced: a scene's own, or one a command names."""
+
+
+class FrameLimitError(RobotSimError):
+    """The scene holds MAX_OPERATOR_FRAMES operator frames already: one must go first."""
 
 
 @dataclass(frozen=True)
@@ -118,7 +128,15 @@ class TaskFrames:
             raise FrameInUseError(
                 f"a frame {frame.name!r} exists ({self._frames[frame.name].defined_by}); delete it first"
             )
+        if frame.source == "operator" and self.operator_count() >= MAX_OPERATOR_FRAMES:
+            raise FrameLimitError(
+                f"operator frames: at most {MAX_OPERATOR_FRAMES} per scene, and the scene has "
+                f"{MAX_OPERATOR_FRAMES}; delete one before adding {frame.name!r}"
+            )
         self._frames[frame.name] = frame
+
+    def operator_count(self) -> int:
+        return sum(f.source == "operator" for f in self._frames.values())
 
     def remove(self, name: str, users: list[int]) -> TaskFrame:
         """Delete an operator's frame, unless commands (`users`, their ids) still name it."""

@@ -360,7 +360,10 @@ class FrameRequest(BaseModel):
 
 
 FRAME_CONFLICT_RESPONSES: dict[int | str, dict[str, Any]] = {
-    409: _error("a frame of that name exists, is built in or the scene's own, or queued commands name it"),
+    409: _error(
+        "a frame of that name exists, is built in or the scene's own, queued commands name it, "
+        "or the scene holds its most operator frames (64)"
+    ),
     **SIM_RESPONSES,
 }
 FRAME_NOT_FOUND_RESPONSES: dict[int | str, dict[str, Any]] = {

@@ -17,6 +17,7 @@ from typing import Any
 
 from recording.writer import SessionRecorder, versions
 from robot_sim.policies.run import StepRecord
+from robot_sim.telemetry import FramesMirror
 from server.config import ServerConfig
 
 
@@ -38,6 +39,9 @@ class RecordingThread:
         self._inbox: queue.SimpleQueue[tuple[str, Any, int] | None] = queue.SimpleQueue()
         self._thread = threading.Thread(target=self._run, name="ptwl-record", daemon=True)
         self.failures = 0  # messages that could not be recorded (the first is reported)
+        # The telemetry's `frames` changes, assembled: the file keeps each whole list, as a replay
+        # answers GET /api/frames and a 3D panel places frames from one message.
+        self._frames = FramesMirror()
 
     # ------------------------------------------------ from any thread: stamp and go
     def state(self, text: str) -> None:
@@ -79,7 +83,9 @@ class RecordingThread:
             if message["type"] == "state":
                 self._recorder.state(message, ns)
             elif message["type"] == "frames":
-                self._recorder.frames(message, ns)
+                if self._frames.apply(message) != "changed":  # it hears every message, in order
+                    raise ValueError(f"frames rev {message['rev']} does not follow {self._frames.rev}")
+                self._recorder.frames(self._frames.message(), ns)
         elif kind == "command":
             self._recorder.command(json.loads(payload), ns)
         elif kind == "geometry":

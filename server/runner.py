@@ -25,7 +25,7 @@ from robot_sim.policies.run import StepRecord
 from robot_sim.scenes import get_scene
 from robot_sim.sim import Simulation
 from robot_sim.task_frames import TaskFrame, unit_quaternion
-from robot_sim.telemetry import frames_message, state_fields
+from robot_sim.telemetry import frames_change_message, frames_message, state_fields
 from server.commands import CommandBook, CommandRecord
 from server.pacing import RealTimePacer
 
@@ -61,6 +61,11 @@ class SimRunner:
         self._thread = threading.Thread(target=self._run, name="ptwl-sim", daemon=True)
         self._seq = 0
         self._next_telemetry = 0.0
+        # Each `frames` message's number (whole or change); states carry the latest as
+        # `frames_rev`, so a client sees a change it lost. `frames_text`: the whole list now, the
+        # first message a telemetry client gets (set here before its change is published).
+        self._frames_rev = 0
+        self.frames_text = json.dumps(frames_message(self.sim.frames, self._frames_rev))
         self.latest_state: dict[str, Any] = self._state()
         self.last_fault: str | None = None
         # (simulation thread) A recorder's: each behavior a command ran, and each scene load's
@@ -116,18 +121,25 @@ class SimRunner:
             defined_by = "typed pose"
         frame = TaskFrame(name, pose.position, unit_quaternion(pose.quaternion), "operator", defined_by)
         self.sim.frames.add(frame)
-        self._publish_frames()
+        self._publish_frames(added=[frame])
         return frame
 
     def remove_frame(self, name: str) -> TaskFrame:
         """(simulation thread) Delete an operator's frame no queued or running command names."""
         frame = self.sim.frames.remove(name, self.book.naming_frame(name))
-        self._publish_frames()
+        self._publish_frames(removed=[name])
         return frame
 
-    def _publish_frames(self) -> None:
-        """Every client hears of a frame's coming and going on the telemetry socket."""
-        self._publish(json.dumps(frames_message(self.sim.frames)))
+    def _publish_frames(self, added: list[TaskFrame] | None = None, removed: list[str] | None = None) -> None:
+        """Every client hears of the frames on the telemetry socket: the whole list on a scene
+        load (no arguments), else only what changed."""
+        self._frames_rev += 1
+        whole = json.dumps(frames_message(self.sim.frames, self._frames_rev))
+        self.frames_text = whole
+        if added is None and removed is None:
+            self._publish(whole)
+        else:
+            self._publish(json.dumps(frames_change_message(self._frames_rev, added or (), removed or ())))
 
     def geometry(self) -> dict[str, Any]:
         """(simulation thread) The loaded scene's geoms and bodies (GET /api/geometry)."""
@@ -202,6 +214,7 @@ class SimRunner:
             **state_fields(self.sim, self._moving),
             "active_command": running.id if running else None,
             "instance": self.book.instance,
+            "frames_rev": self._frames_rev,
         }
 
     def _publish_state(self) -> None:

@@ -100,7 +100,9 @@ def test_scene_frames_and_a_reset_drops_the_operators(robot: RobotClient) -> Non
 
 
 def test_telemetry_announces_frames(robot: RobotClient) -> None:
+    """First the whole list, then each change alone (tests/test_frames_cap.py: sizes, deltas)."""
     with connect(robot.telemetry_url(), open_timeout=5.0) as ws:
+        first = json.loads(ws.recv(timeout=5.0))
         robot.add_frame("heard")
         for _ in range(200):
             message = json.loads(ws.recv(timeout=5.0))
@@ -108,7 +110,9 @@ def test_telemetry_announces_frames(robot: RobotClient) -> None:
                 break
         else:
             pytest.fail("no frames message")
-    assert [f["name"] for f in message["frames"]] == ["heard"]
+    assert first["type"] == "frames" and first["frames"] == []
+    assert [f["name"] for f in message["added"]] == ["heard"] and message["removed"] == []
+    assert message["rev"] == first["rev"] + 1
 
 
 def test_a_command_whose_frame_is_gone_at_its_turn_ends_aborted_and_the_next_runs() -> None:

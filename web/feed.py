@@ -1,12 +1,19 @@
 """The telemetry feed: one background thread reading the robot's WebSocket through the link,
-reconnecting by itself when the link or the robot goes away."""
+reconnecting by itself when the link or the robot goes away.
 
+It keeps the console's copy of the task frames: the whole list the robot sends first, then the
+changes (robot_sim.telemetry.FramesMirror). A change lost on the link (it may drop WebSocket
+messages) shows as a gap in `rev`, or a state's `frames_rev` ahead of the copy: the whole list is
+fetched then (GET /api/frames, on a thread of its own so states keep flowing meanwhile)."""
+
+import threading
 import time
 from collections.abc import Callable
 from typing import Any
 
 from websockets.exceptions import ConnectionClosed, InvalidStatus
 
+from robot_sim.telemetry import FramesMirror
 from server.client import RobotClient
 from web.worker import Worker
 
@@ -32,6 +39,10 @@ class TelemetryFeed(Worker):
         super().__init__("ptwl-telemetry", join_timeout_s=RECEIVE_TIMEOUT_S + RECONNECT_S + 1.0)
         self.connected = False
         self.reconnects = 0
+        self._frames = FramesMirror()
+        self._frames_lock = threading.RLock()  # the reading thread and a refetch both update it
+        self._refetching = False
+        self.frames_refetches = 0  # whole lists fetched because a change was lost
 
     def _run(self) -> None:
         while not self._closed.is_set():
@@ -47,10 +58,12 @@ class TelemetryFeed(Worker):
                         self._on_link("connected")
                     if message.get("type") == "state":
                         self._on_state(message, arrived)
+                        if "frames_rev" in message:  # (a file recorded before it: none)
+                            self._check_frames_rev(message["frames_rev"])
                     elif message.get("type") == "command":
                         self._on_command(message)
                     elif message.get("type") == "frames":
-                        self._on_frames(message["frames"])
+                        self._frames_message(message)
                 reason = "the robot closed the telemetry stream"
             except Exception as err:  # any failure of the link: say so in plain words, then retry
                 reason = plain_reason(err)
@@ -59,6 +72,47 @@ class TelemetryFeed(Worker):
             self.connected = False
             self._on_link(f"no telemetry: {reason}; reconnecting")
             self._closed.wait(RECONNECT_S)
+
+    # ------------------------------------------------------------ task frames
+    def _frames_message(self, message: dict[str, Any]) -> None:
+        # The console hears each list under the lock, so a refetch's answer and a newer change
+        # cannot reach it in the wrong order.
+        with self._frames_lock:
+            news = self._frames.apply(message)
+            if news == "changed":
+                self._on_frames(self._frames.frames())
+        if news == "gap":
+            self._refetch_frames(message["rev"])
+
+    def _check_frames_rev(self, rev: int) -> None:
+        """A state says which frames message came last before it: behind it, one was lost."""
+        with self._frames_lock:
+            behind = self._frames.rev != rev
+        if behind:
+            self._refetch_frames(rev)
+
+    def _refetch_frames(self, rev: int) -> None:
+        """Fetch the whole list (at least as new as `rev`: asked after it was announced); one
+        fetch at a time, and a later state asks again if the link lost more meanwhile."""
+        with self._frames_lock:
+            if self._refetching:
+                return
+            self._refetching = True
+            self.frames_refetches += 1
+        threading.Thread(target=self._refetch, args=(rev,), name="ptwl-frames-refetch", daemon=True).start()
+
+    def _refetch(self, rev: int) -> None:
+        try:
+            fetched = [f.model_dump() for f in self._client.frames()]
+        except Exception:  # the link failed: the next state that finds the copy behind asks again
+            with self._frames_lock:
+                self._refetching = False
+            return
+        with self._frames_lock:
+            self._frames.replace(fetched, rev)
+            self._refetching = False
+            if not self._closed.is_set():
+                self._on_frames(self._frames.frames())
 
 
 def plain_reason(err: BaseException) -> str:

@@ -14,16 +14,22 @@ class FramesView:
     def __init__(self, scene: viser.SceneApi) -> None:
         self._scene = scene
         self._drawn: dict[str, tuple[viser.FrameHandle, viser.LabelHandle]] = {}
+        self._poses: dict[str, dict[str, Any]] = {}  # as last drawn: an unchanged frame sends nothing
         self._visible = True
 
     def show(self, frames: list[dict[str, Any]]) -> None:
-        """Draw exactly these frames (as the API lists them); gone ones are removed."""
+        """Draw exactly these frames (as the API lists them); gone ones are removed. Only what
+        changed goes to the browser: each property set is a message, and an add among 64 frames
+        would otherwise resend all 64 poses."""
         wanted = {f["name"]: f for f in frames}
         for name in [n for n in self._drawn if n not in wanted]:
+            self._poses.pop(name, None)
             for handle in self._drawn.pop(name):
                 handle.remove()
         for name, frame in wanted.items():
             pose = frame["pose"]
+            if self._poses.get(name) == pose:
+                continue
             if name not in self._drawn:
                 axes = self._scene.add_frame(
                     f"/task_frames/{name}",
@@ -38,6 +44,7 @@ class FramesView:
                 self._drawn[name] = (axes, label)
             axes = self._drawn[name][0]
             axes.position, axes.wxyz = pose["position"], pose["quaternion"]
+            self._poses[name] = pose
 
     def set_visible(self, visible: bool) -> None:
         self._visible = visible

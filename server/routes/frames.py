@@ -4,7 +4,7 @@ from fastapi import APIRouter, HTTPException, status
 
 from robot_sim.behaviors.base import Pose
 from robot_sim.errors import UnknownNameError
-from robot_sim.task_frames import FrameInUseError, TaskFrame, frame_dict
+from robot_sim.task_frames import FrameInUseError, FrameLimitError, TaskFrame, frame_dict
 from server.models import (
     FRAME_CONFLICT_RESPONSES,
     FRAME_NOT_FOUND_RESPONSES,
@@ -36,14 +36,15 @@ async def list_frames(runner: Runner) -> list[FrameModel]:
 )
 async def add_frame(body: FrameRequest, runner: Runner) -> FrameModel:
     """Add a task frame at the tool's pose now (`"pose": "tool"`) or at a typed pose. It lasts
-    until deleted or the scene is reset; every telemetry client hears of it (`frames` message)."""
+    until deleted or the scene is reset; every telemetry client hears of it (`frames` message).
+    A scene holds at most 64 operators' frames (task_frames.MAX_OPERATOR_FRAMES; 409 past it)."""
     pose = None
     if not isinstance(body.pose, str):
         p, q = body.pose.position, body.pose.quaternion
         pose = Pose((p[0], p[1], p[2]), (q[0], q[1], q[2], q[3]))
     try:
         frame = await on_sim_thread(runner, lambda: runner.add_frame(body.name, pose))
-    except FrameInUseError as err:
+    except (FrameInUseError, FrameLimitError) as err:
         raise HTTPException(status.HTTP_409_CONFLICT, str(err)) from None
     return _model(frame)
 

@@ -1,4 +1,5 @@
-"""WS /api/telemetry: state at telemetry_hz and an event on every command status change.
+"""WS /api/telemetry: the task frames first, then state at telemetry_hz, an event on every
+command status change and a `frames` message on every change of the task frames.
 
 Each message gets `sent_at` (server wall clock, Unix seconds) as it leaves, so a client can
 measure how old it is on arrival.
@@ -29,6 +30,9 @@ async def telemetry(ws: WebSocket) -> None:
     await ws.accept()
     broadcaster: Broadcaster = ws.app.state.broadcaster
     sub = broadcaster.subscribe()
+    # First the task frames whole: later `frames` messages carry only what changed. Taken after
+    # subscribing, so no change falls between (one already in it comes again: older `rev`, skipped).
+    sub.queue.put_nowait(ws.app.state.runner.frames_text)
     closed = asyncio.create_task(_until_closed(ws))
     try:
         while True:
