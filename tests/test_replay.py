@@ -33,7 +33,7 @@ def recording_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="module")
 def timeline(recording_path: Path) -> Timeline:
-    return Timeline(read(recording_path))
+    return Timeline(recording_path)
 
 
 class FakeClock:

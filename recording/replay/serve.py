@@ -6,7 +6,6 @@ from pathlib import Path
 import uvicorn
 
 from guard.access import AccessPolicy, check_token_setting
-from recording.reader import read
 from recording.replay.app import create_replay_app
 from recording.replay.player import Player
 from recording.replay.timeline import Timeline
@@ -14,10 +13,9 @@ from server.serve import bind
 
 
 def load(path: Path) -> Timeline:
-    recording = read(path)
-    timeline = Timeline(recording)
-    if not recording.complete:
-        print(f"ptwl replay: {path} was cut short ({recording.problem}); replaying what is whole", flush=True)
+    timeline = Timeline(path)  # an index of the file, in bounded memory
+    if not timeline.complete:
+        print(f"ptwl replay: {path} was cut short ({timeline.problem}); replaying what is whole", flush=True)
     return timeline
 
 
