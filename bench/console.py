@@ -81,7 +81,9 @@ def main() -> None:
         sync_playwright() as playwright,
     ):
         browser = launch(playwright)
-        page = browser.new_page(viewport={"width": 1500, "height": 950})
+        page = browser.new_page(
+            viewport={"width": 1500, "height": 950}, bypass_csp=True
+        )  # eval in predicates
         frames: list[tuple[float, bytes]] = []
         page.on(
             "websocket",
@@ -152,7 +154,9 @@ def send_visible_s(scene: str, playwright: Any, rtt_s: float) -> float:
         running_proxy(robot.url, "--uplink", half, "--downlink", half) as link,
     ):
         browser = launch(playwright)
-        page = browser.new_page(viewport={"width": 1500, "height": 950})
+        page = browser.new_page(
+            viewport={"width": 1500, "height": 950}, bypass_csp=True
+        )  # eval in predicates
         with running_console(link.url) as console:
             t0 = time.monotonic()
             page.goto(console.url)

@@ -1,7 +1,9 @@
 """AccessGuard: the access policy in front of an ASGI app, for every HTTP route and WebSocket.
 
 Checks run in order Host (400), Origin (403), token (401/403), before the app sees the request,
-so no route can forget them (docs and openapi.json included when a token is set).
+so no route can forget them (docs and openapi.json included when a token is set). Every answer
+it lets out, a refusal too, carries the page headers (guard/page_headers.py: no framing, scripts
+only from the page's own origin).
 """
 
 from urllib.parse import parse_qs
@@ -9,6 +11,7 @@ from urllib.parse import parse_qs
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from guard.access import AccessPolicy, bearer
+from guard.page_headers import API_CSP, with_page_headers
 from guard.respond import send_json
 
 
@@ -43,6 +46,7 @@ class AccessGuard:
         if scope["type"] not in ("http", "websocket"):
             await self.app(scope, receive, send)
             return
+        send = _with_page_headers(send)
         query = scope.get("query_string", b"").decode("latin-1")
         refused = denial(self.policy, _headers(scope), query, scope["type"] == "websocket")
         if refused is None:
@@ -55,6 +59,15 @@ class AccessGuard:
             await send_json(_as_websocket_denial(send), status, {"detail": detail}, extra)
         else:
             await send({"type": "websocket.close", "code": 4000 + status, "reason": detail[:120]})
+
+
+def _with_page_headers(send: Send) -> Send:
+    async def wrapped(message: Message) -> None:
+        if message["type"] in ("http.response.start", "websocket.http.response.start"):
+            message = {**message, "headers": with_page_headers(list(message.get("headers", [])), API_CSP)}
+        await send(message)
+
+    return wrapped
 
 
 def _as_websocket_denial(send: Send) -> Send:

@@ -28,8 +28,12 @@ def open_consoles(browser: object, url: str, *controls: bool) -> list:  # type: 
     return [_ready(page, control) for page, control in zip(pages, controls, strict=True)]
 
 
-def _load(browser: object, url: str, viewport: tuple[int, int]):  # type: ignore[no-untyped-def]
-    page = browser.new_page(viewport={"width": viewport[0], "height": viewport[1]})  # type: ignore[attr-defined]
+def _load(browser: object, url: str, viewport: tuple[int, int], csp: bool = False):  # type: ignore[no-untyped-def]
+    """A page on `url`. The console's script policy forbids eval, which Playwright's string
+    predicates (wait_for_function) use; so pages bypass it unless `csp` (tests of the policy
+    itself, which wait by locators instead)."""
+    size = {"width": viewport[0], "height": viewport[1]}
+    page = browser.new_page(viewport=size, bypass_csp=not csp)  # type: ignore[attr-defined]
     page.goto(url, wait_until="commit")
     return page
 

@@ -22,6 +22,7 @@ from urllib.parse import urlsplit
 
 from guard.access import AccessPolicy
 from guard.asgi import denial
+from guard.page_headers import CONSOLE_CSP, page_headers
 
 MAX_HEAD_BYTES = 64 * 1024
 MARK = "x-ptwl-front-door"
@@ -40,11 +41,16 @@ def _parse_head(head: bytes) -> tuple[str, dict[str, str]]:
     return target, headers
 
 
-def _marked(head: bytes, secret: str) -> bytes:
-    """The head with any client-sent mark removed and ours added."""
+def _with_headers(head: bytes, headers: dict[str, str]) -> bytes:
+    """An HTTP head with `headers` (lowercase names) set: any of the same name it had removed."""
     lines = head.decode("latin-1").split("\r\n")[:-2]  # the head ends with an empty line
-    kept = [line for line in lines if not line.lower().startswith(MARK + ":")]
-    return ("\r\n".join([*kept, f"{MARK}: {secret}"]) + "\r\n\r\n").encode("latin-1")
+    kept = [line for line in lines if line.partition(":")[0].strip().lower() not in headers]
+    return ("\r\n".join([*kept, *(f"{k}: {v}" for k, v in headers.items())]) + "\r\n\r\n").encode("latin-1")
+
+
+def _marked(head: bytes, secret: str) -> bytes:
+    """The request head with any client-sent mark removed and ours added."""
+    return _with_headers(head, {MARK: secret})
 
 
 def admit_only_through(front_door: "FrontDoor", viser_server: Any) -> None:
@@ -134,7 +140,18 @@ class FrontDoor:
             await _close(writer)
             return
         inner_writer.write(_marked(head, self.secret))
-        await asyncio.gather(_pipe(reader, inner_writer), _pipe(inner_reader, writer))
+        await asyncio.gather(_pipe(reader, inner_writer), _answer(inner_reader, writer))
+
+
+async def _answer(inner_reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+    """viser's answer with the page headers (no framing, scripts only from here) in its head."""
+    try:
+        head = await inner_reader.readuntil(b"\r\n\r\n")
+    except (asyncio.IncompleteReadError, asyncio.LimitOverrunError, ConnectionError):
+        await _close(writer)
+        return
+    writer.write(_with_headers(head, page_headers(CONSOLE_CSP)))
+    await _pipe(inner_reader, writer)
 
 
 async def _close(writer: asyncio.StreamWriter) -> None:

@@ -36,7 +36,8 @@ class LinkPoller(Worker):
             return "link: direct connection (no link proxy)"
         p = self.profile = response.json()
         self.rtt_s = float(p["uplink"]) + float(p["downlink"])
+        described = f": {p['description']}" if p.get("description") else ""
         return (
             f"link: uplink {p['uplink']:g} s · downlink {p['downlink']:g} s · "
-            f"round trip {self.rtt_s:g} s (profile v{p['version']})"
+            f"round trip {self.rtt_s:g} s (profile v{p['version']}{described})"
         )
