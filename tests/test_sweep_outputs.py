@@ -16,7 +16,7 @@ import pytest
 from experiments.sweep import sweep as sweep_module
 from experiments.sweep.spec import SweepSettings
 from experiments.sweep.summary import Fit, break_even_s, fits
-from experiments.sweep.sweep import run_sweep
+from experiments.sweep.sweep import OutDirectoryError, run_sweep
 from experiments.sweep.table import NAMES, read_rows
 from ptwl.cli import main
 from recording.reader import read
@@ -143,7 +143,7 @@ def test_a_rerun_runs_only_the_missing_trials(
     run_sweep(small(tmp_path))
     assert ran == [4, 4, 0]
     assert (tmp_path / "trials.csv").read_bytes() == (reference / "trials.csv").read_bytes()
-    with pytest.raises(SystemExit, match=r"jitter_s = 0\.0, not 0\.5"):
+    with pytest.raises(OutDirectoryError, match=r"jitter_s = 0\.0, not 0\.5"):
         run_sweep(small(tmp_path, jitter_s=0.5))
 
 

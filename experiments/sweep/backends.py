@@ -1,9 +1,14 @@
 """Where trials run: a local process pool (default) or Ray tasks. Each trial is a pure function
 of its settings (trial.run_trial), so both give the same rows; they come back as they end."""
 
+import ctypes
+import ctypes.util
 import importlib.util
 import os
+import select
 import signal
+import sys
+import threading
 from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Any
@@ -11,10 +16,53 @@ from typing import Any
 from experiments.sweep.spec import TrialSpec
 from experiments.sweep.trial import run_trial
 
+PR_SET_PDEATHSIG = 1  # linux/prctl.h
+PARENT_POLL_S = 0.5  # the portable watcher's period: how long a worker may outlive its sweep
 
-def _ignore_sigint() -> None:
-    """Workers leave Ctrl-C to the parent, which stops handing out trials and keeps the rows."""
+
+def _worker_init(sweep_pid: int) -> None:
+    """Each pool worker: Ctrl-C is left to the sweep (it stops handing out trials and keeps the
+    rows), and the worker dies with the sweep. A sweep killed outright (kill -9, the OOM killer)
+    runs no cleanup, and its workers, blocked reading a queue whose other ends they hold
+    themselves, lived on under init, each a core busy on a trial nobody will read."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if not _kill_me_with_parent() or os.getppid() != sweep_pid:
+        # No prctl (not Linux), or the parent is not the sweep (a forkserver's child), or the
+        # sweep died before prctl took hold (the parent is already init): watch the sweep itself.
+        threading.Thread(target=_exit_when_gone, args=(sweep_pid,), name="sweep-watch", daemon=True).start()
+
+
+def _kill_me_with_parent() -> bool:
+    """Linux: SIGKILL from the kernel the moment the parent process dies; False elsewhere."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c"), use_errno=True)
+        return bool(libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0) == 0)
+    except (OSError, AttributeError):
+        return False
+
+
+def _exit_when_gone(pid: int) -> None:
+    """Block until process `pid` has ended, then end this one (no cleanup: nobody reads it)."""
+    if hasattr(os, "pidfd_open"):
+        try:
+            fd = os.pidfd_open(pid)  # readable once the process ends; immune to pid reuse
+        except ProcessLookupError:
+            os._exit(1)
+        except OSError:
+            pass  # an old kernel: poll below
+        else:
+            select.select([fd], [], [])
+            os._exit(1)
+    while True:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            os._exit(1)
+        except PermissionError:
+            pass  # it exists (a pid reused by another user's process is not told apart here)
+        threading.Event().wait(PARENT_POLL_S)
 
 
 def run_local(
@@ -22,7 +70,7 @@ def run_local(
 ) -> Iterator[dict[str, Any]]:
     if not specs:
         return
-    with ProcessPoolExecutor(max_workers=workers, initializer=_ignore_sigint) as pool:
+    with ProcessPoolExecutor(max_workers=workers, initializer=_worker_init, initargs=(os.getpid(),)) as pool:
         futures = [pool.submit(run_trial, spec, record_dir) for spec in specs]
         try:
             for future in as_completed(futures):

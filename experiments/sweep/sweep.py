@@ -78,17 +78,44 @@ def versions(backend: str) -> dict[str, str]:
     return found
 
 
+class OutDirectoryError(ValueError):
+    """`--out` names a directory this sweep must not write into (`ptwl`: exit 2, one line)."""
+
+
 def _check_directory(out: Path, settings: SweepSettings) -> None:
-    """Refuse to mix trials of different settings in one directory."""
+    """Write only into a new or empty directory, or a sweep's of the same grid (to resume it):
+    a sweep overwrites report.md, summary.md, trials.csv and more, which in any other directory
+    may be someone's own files. Trials of different settings never mix in one directory."""
+    if not out.exists():
+        return
+    if not out.is_dir():
+        raise OutDirectoryError(f"--out {out}: exists and is not a directory")
     path = out / "sweep.json"
     if not path.exists():
+        found = sorted(p.name for p in out.iterdir())
+        if found:
+            shown = ", ".join(repr(n) for n in found[:3]) + (
+                f" and {len(found) - 3} more" if len(found) > 3 else ""
+            )
+            raise OutDirectoryError(
+                f"--out {out}: not empty and not a sweep's directory (no sweep.json; it holds {shown}); "
+                "give a new or empty directory, or a sweep's to resume it"
+            )
         return
-    before = json.loads(path.read_text())["arguments"]
+    try:
+        before = json.loads(path.read_text())["arguments"]
+        if not isinstance(before, dict):
+            raise TypeError("arguments is not an object")
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        raise OutDirectoryError(
+            f"--out {out}: its sweep.json is not a sweep's ({type(err).__name__}: {err}); "
+            "give a new or empty directory"
+        ) from None
     for name in TRIAL_SETTINGS:
         if before.get(name) != getattr(settings, name):
-            raise SystemExit(
-                f"{out} holds a sweep with {name} = {before.get(name)!r}, not {getattr(settings, name)!r}: "
-                "use another --out, or the same settings to resume"
+            raise OutDirectoryError(
+                f"--out {out}: holds a sweep with {name} = {before.get(name)!r}, not "
+                f"{getattr(settings, name)!r}: use another --out, or the same settings to resume"
             )
 
 
@@ -111,8 +138,8 @@ def run_sweep(settings: SweepSettings, stream: TextIO = sys.stderr) -> list[dict
     """Run what is missing and write every output; the rows of this grid, in grid order."""
     backends.available(settings.backend)
     out = Path(settings.out)
+    _check_directory(out, settings)  # before anything is written
     out.mkdir(parents=True, exist_ok=True)
-    _check_directory(out, settings)
     specs = settings.specs()
     order = [s.key() for s in specs]
     csv_path = out / "trials.csv"
