@@ -264,8 +264,9 @@ def test_upstream_restart_gives_502_then_recovers(tmp_path: Path) -> None:
             with running_server("--scene", "free_space", port=port):
                 assert httpx.get(proxy.url + "/api/health").status_code == 200
 
-                async def reconnect() -> dict:
+                async def reconnect() -> list[str]:
                     async with websockets.connect(ws(proxy.url), ping_interval=None, max_queue=None) as conn:
-                        return json.loads(await asyncio.wait_for(conn.recv(), 5.0))
+                        texts = [await asyncio.wait_for(conn.recv(), 5.0) for _ in range(2)]
+                        return [json.loads(t)["type"] for t in texts]
 
-                assert asyncio.run(reconnect())["type"] == "state"
+                assert asyncio.run(reconnect()) == ["frames", "state"]  # the task frames whole, then states
