@@ -157,7 +157,7 @@ class Scan:
         if decode is None:
             decode = self._decoders[channel.id] = self._decoder(channel, schema, where)
         try:
-            value = decode(message.data)
+            value = decode(bytes(message.data))  # a view into its chunk: bytes for the decoders
         except RecordingError as err:
             raise RecordingError(f"{self.path}: {where}: {err}") from None
         except Exception as err:  # protobuf's and json's many errors: all the file's fault
@@ -217,27 +217,33 @@ class Scan:
             if self.decompressed_bytes > MAX_TOTAL_BYTES:
                 raise RecordingError(f"{where}: the file decompresses to over {MAX_TOTAL_BYTES} B")
         data = _decompress(chunk, where)
-        stream = ReadDataStream(cast(IO[bytes], _Bounded(BytesIO(data))))
-        try:
-            while stream.count < len(data):
-                opcode = stream.read1()
-                length = stream.read8()
-                if length > len(data) - stream.count:
-                    raise RecordingError(f"{where}: a record runs past the chunk's end")
-                if opcode == Opcode.MESSAGE:
-                    if length < _MESSAGE_HEADER_BYTES:
-                        raise RecordingError(f"{where}: a message record of {length} B, under its header")
-                    yield Message.read(stream, length)
-                elif opcode == Opcode.CHANNEL:
-                    yield Channel.read(stream)
-                elif opcode == Opcode.SCHEMA:
-                    yield Schema.read(stream)
-                else:  # MCAP says: skip what you do not know
-                    stream.read(length)
-        except _Oversize as err:
-            raise RecordingError(f"{where}: {err}") from None
-        except (McapError, struct.error, UnicodeDecodeError) as err:
-            raise RecordingError(f"{where}: a malformed record ({type(err).__name__})") from None
+        view = memoryview(data)
+        # The record layout (opcode, length, then the body) read in place with struct, not by
+        # mcap's ReadDataStream a field at a time: 5x faster over an hour's 1.4 M messages.
+        # Schema and channel records, a few a file, are mcap's own parsers on their bytes.
+        position, end = 0, len(data)
+        while position < end:
+            if end - position < _RECORD.size:
+                raise RecordingError(f"{where}: a record runs past the chunk's end")
+            opcode, length = _RECORD.unpack_from(data, position)
+            body, position = position + _RECORD.size, position + _RECORD.size + length
+            if position > end:
+                raise RecordingError(f"{where}: a record runs past the chunk's end")
+            if opcode == Opcode.MESSAGE:
+                if length < _MESSAGE.size:
+                    raise RecordingError(f"{where}: a message record of {length} B, under its header")
+                channel_id, sequence, log_time, publish_time = _MESSAGE.unpack_from(data, body)
+                payload = cast(bytes, view[body + _MESSAGE.size : position])  # decode() copies it out
+                yield Message(channel_id, log_time, payload, publish_time, sequence)
+            elif opcode in (Opcode.CHANNEL, Opcode.SCHEMA):
+                record = ReadDataStream(BytesIO(view[body:position]))
+                try:
+                    yield Channel.read(record) if opcode == Opcode.CHANNEL else Schema.read(record)
+                except (McapError, struct.error, UnicodeDecodeError) as err:
+                    raise RecordingError(f"{where}: a malformed record ({type(err).__name__})") from None
+            elif opcode == 0:  # reserved: a run of zero bytes (a bomb's padding) is no MCAP
+                raise RecordingError(f"{where}: a record with opcode 0, which MCAP reserves")
+            # other opcodes: MCAP says skip what you do not know
 
     def _define(self, record: Any) -> None:
         if isinstance(record, Schema):
@@ -293,7 +299,8 @@ def _decompress(chunk: Chunk, where: str) -> bytes:
     return data
 
 
-_MESSAGE_HEADER_BYTES = 22  # channel id, sequence, log time, publish time
+_RECORD = struct.Struct("<BQ")  # opcode, length
+_MESSAGE = struct.Struct("<HIQQ")  # channel id, sequence, log time, publish time
 
 
 class _Oversize(Exception):  # not a ValueError: never taken for a file cut short
