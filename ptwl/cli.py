@@ -31,7 +31,7 @@ from robot_sim.policies.sleeve_on_peg import SleeveOnPeg
 from robot_sim.presets import default_presets
 from robot_sim.scenes import SCENES
 from robot_sim.sim import Simulation
-from server.config import ConfigError
+from server.config import MAX_SENT_AT_SKEW_S, SENT_AT_SKEW_S, ConfigError
 from server.pacing import RealTimePacer
 
 DEMO_TILT_RAD = 0.052  # 3 degrees about the tool x axis: enough to jam the 0.089 mm fit
@@ -141,7 +141,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
-    from server.config import ServerConfig
+    from server.config import ServerConfig, default_data_dir
     from server.serve import serve
 
     config = ServerConfig(
@@ -155,6 +155,8 @@ def cmd_serve(args: argparse.Namespace) -> int:
         allow_hosts=tuple(args.allow_host),
         allow_origins=tuple(args.allow_origin),
         record=args.record,
+        data_dir=args.data_dir or default_data_dir(),
+        sent_at_skew_s=args.sent_at_skew,
     )
     serve(config)
     return 0
@@ -240,6 +242,16 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--token", default=os.environ.get("PTWL_TOKEN"), help="access token (or PTWL_TOKEN)")
     serve.add_argument(
         "--record", type=Path, metavar="FILE.mcap", help="record the session to this new MCAP file"
+    )
+    serve.add_argument(
+        "--data-dir", type=Path, help="kept across runs (command ids); default $XDG_STATE_HOME/ptwl"
+    )
+    serve.add_argument(
+        "--sent-at-skew",
+        type=float,
+        default=SENT_AT_SKEW_S,
+        metavar="S",
+        help=f"[s] refuse commands whose sent_at leads the robot's clock by more (0-{MAX_SENT_AT_SKEW_S:g})",
     )
     serve.add_argument("--fault-injection", action="store_true", help=argparse.SUPPRESS)
     _access_flags(serve)

@@ -65,7 +65,10 @@ def check_gains(
                 f"stiffness[{i}] ({axis}) must be in [0, {STIFFNESS_MAX[i]:g}] {_K_UNITS[i]}, got {k:g}"
             )
         if b <= 0.0:
-            raise ValueError(f"damping[{i}] ({axis}) must be > 0 {_B_UNITS[i]}, got {b:g}")
+            raise ValueError(
+                f"damping[{i}] ({axis}) must be > 0 {_B_UNITS[i]}, in [{DAMPING_MIN[i]:g}, "
+                f"{DAMPING_MAX[i]:g}], got {b:g}"
+            )
         if not DAMPING_MIN[i] <= b <= DAMPING_MAX[i]:
             raise ValueError(
                 f"damping[{i}] ({axis}) must be in [{DAMPING_MIN[i]:g}, {DAMPING_MAX[i]:g}] {_B_UNITS[i]} "

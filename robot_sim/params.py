@@ -77,13 +77,18 @@ def _vector(limit: float, unit: str, *, direction: bool = False) -> WrapValidato
                 if isinstance(v, float) and not math.isfinite(v):
                     raise ValueError(f"component {i} must be a finite number, got {v}")
         vec: list[float] = handler(value)
-        norm = math.hypot(*vec)  # no overflow: sum of squares of 1.3e154 is inf
+        # Over the largest component first: hypot of [1e308, 1e308, 0] is inf, and a direction
+        # divided by it was [0, 0, 0] (a dither that never moves).
+        largest = max((abs(v) for v in vec), default=0.0)
+        scaled = [v / largest for v in vec] if largest > 0.0 else vec
+        norm = largest * math.hypot(*scaled)
         if norm > limit:
             raise ValueError(f"magnitude must be <= {limit:g} {unit}, got {norm:.4g}")
         if direction:
             if norm < 1e-9:
                 raise ValueError("must be a non-zero direction")
-            return [v / norm for v in vec]
+            scaled_norm = math.hypot(*scaled)
+            return [v / scaled_norm for v in scaled]
         return vec
 
     return WrapValidator(check)
@@ -92,7 +97,10 @@ def _vector(limit: float, unit: str, *, direction: bool = False) -> WrapValidato
 Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
 Vec6 = Annotated[list[float], Field(min_length=6, max_length=6), _vector(math.inf, "")]
 Duration = Annotated[float, _range(0.0, limits.MAX_DURATION_S, "s", lo_open=True)]
-Threshold = Annotated[float, _range(0.0, math.inf, "", lo_open=True, hi_open=True)]
+# Tolerances: a PTWL moves at most MAX_TRANSLATION_M and an orientation error is at most pi, so
+# a wider tolerance says nothing more (1e308 m was accepted).
+PositionTolerance = Annotated[float, _range(0.0, limits.MAX_TRANSLATION_M, "m", lo_open=True)]
+OrientationTolerance = Annotated[float, _range(0.0, limits.MAX_ROTATION_RAD, "rad", lo_open=True)]
 ForceThreshold = Annotated[float, _range(0.0, limits.MAX_FORCE_THRESHOLD_N, "N", lo_open=True)]
 TorqueThreshold = Annotated[float, _range(0.0, limits.MAX_TORQUE_THRESHOLD_NM, "N m", lo_open=True)]
 
@@ -188,6 +196,7 @@ MONITOR_DOC = "force task monitor (opt-in): ends the behavior `anomaly` when con
 
 
 MAX_AGE_S = 86400.0
+MAX_SIM_TIME_S = 1e9  # [s] ~32 years of sim time since a scene load: past any run's
 EXPIRY_DOC = (
     "a command that has not started by then ends `expired` without moving the robot (a command "
     "held in a link blackout must not act on a world that has moved on)"
@@ -201,14 +210,18 @@ class Expiring(StrictModel):
     in the link or in the queue is judged alike. `max_age` compares the robot's wall clock with
     the sender's `sent_at`: across machines their clocks must agree to well under `max_age`."""
 
+    # The robot refuses a sent_at more than its skew (5 s by default) ahead of its own clock
+    # (server/commands.py: the bound moves with the clock, so the schema cannot hold it).
     sent_at: Annotated[float, _range(0.0, math.inf, "s", hi_open=True)] | None = Field(
-        None, description="[s] Unix time when the sender sent it, by the sender's clock"
+        None,
+        description="[s] Unix time when the sender sent it, by the sender's clock; at most the "
+        "robot's clock + 5 s (its --sent-at-skew)",
     )
     max_age: Annotated[float, _range(0.0, MAX_AGE_S, "s", lo_open=True)] | None = Field(
         None, description="[s] (0, 86400] after `sent_at`, which it needs; " + EXPIRY_DOC
     )
-    valid_until_sim_time: Annotated[float, _range(0.0, math.inf, "s", hi_open=True)] | None = Field(
-        None, description="[s] the robot's sim time; " + EXPIRY_DOC
+    valid_until_sim_time: Annotated[float, _range(0.0, MAX_SIM_TIME_S, "s")] | None = Field(
+        None, description="[s] the robot's sim time, [0, 1e9]; " + EXPIRY_DOC
     )
 
     @model_validator(mode="after")
@@ -248,8 +261,10 @@ class PtwlParams(Expiring):
     torque_threshold: TorqueThreshold = Field(
         2.0, description="[N m] |tau| above this ends wrench_breach; <= 50"
     )
-    position_tolerance: Threshold = Field(0.002, description="[m] goal_reached when within this")
-    orientation_tolerance: Threshold = Field(0.02, description="[rad] and within this")
+    position_tolerance: PositionTolerance = Field(
+        0.002, description="[m] goal_reached when within this; (0, 1]"
+    )
+    orientation_tolerance: OrientationTolerance = Field(0.02, description="[rad] and within this; (0, pi]")
     watchdog: Duration | None = Field(None, description="[s] timeout; >= duration; default duration + 5")
     on_breach: OnBreach = Field("limit", description=ON_BREACH_DOC)
     preset: str | None = Field(None, description="stiffness/damping preset name")
@@ -289,8 +304,10 @@ class RweParams(Expiring):
     frame: FrameName = Field(
         "base", description="axes of `axes`: `base`, `tool` (the port's at start)" + TASK_FRAME_DOC
     )
-    force_residual: Threshold = Field(1.0, description="[N] relieved when |f| on the axes is below")
-    torque_residual: Threshold = Field(0.1, description="[N m] and |tau| on the axes is below")
+    force_residual: ForceThreshold = Field(
+        1.0, description="[N] relieved when |f| on the axes is below; <= 500"
+    )
+    torque_residual: TorqueThreshold = Field(0.1, description="[N m] and |tau| on the axes is below; <= 50")
 
     @model_validator(mode="after")
     def _unique(self) -> Self:

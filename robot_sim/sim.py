@@ -144,9 +144,19 @@ class Simulation:
         self.layout = layout
         self._mechanism = spec.mechanism(model) if spec.mechanism is not None else None
         self.payload = Payload.from_model(model, layout)
+        # The scene's own frames where the seed put its fixtures; an operator's are added here.
+        self.frames: TaskFrames = scene_frames(spec.name, model, data)
         keep: Gains = gains if gains is not None else self.controller.gains
+        if keep.frame not in self.frames.names():  # the last scene's frame, gone with it
+            keep = keep.in_frame("base")
         self.controller = AdmittanceController(
-            model, data, layout, self.payload, keep, self.control_dt, self.ft_cutoff_hz
+            model,
+            data,
+            layout,
+            self.payload,
+            self.frames.resolve_gains(keep),
+            self.control_dt,
+            self.ft_cutoff_hz,
         )
         self.controller.enable()
         self.behavior: Behavior | None = None
@@ -156,8 +166,6 @@ class Simulation:
         self._limited_s: dict[Limit, float] = {}  # [s] per limit, while the behavior ran
         self._behavior_detail = ""  # what the running behavior's report will say (a grasp)
         self.monitor: FrictionMonitor | None = None  # the last behavior's task monitor, if it had one
-        # The scene's own frames where the seed put its fixtures; an operator's are added here.
-        self.frames: TaskFrames = scene_frames(spec.name, model, data)
 
     @property
     def time(self) -> float:

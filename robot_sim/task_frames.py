@@ -57,9 +57,19 @@ class TaskFrame:
 
 
 def unit_quaternion(quaternion: "Iterable[float]") -> tuple[float, float, float, float]:
+    """`quaternion` (w x y z, any length) scaled to unit length; ValueError if it has no direction.
+
+    Divided by its largest component before the norm: the squares of 1e200 overflow and those of
+    1e-200 underflow, and mju_normalize4 then gave [0, 0, 0, 0] (a frame whose moves go nowhere)
+    or silently the identity."""
     q = np.asarray(list(quaternion), dtype=float)
-    mujoco.mju_normalize4(q)
-    w, x, y, z = q.tolist()
+    if q.shape != (4,) or not np.isfinite(q).all():
+        raise ValueError(f"quaternion must be 4 finite numbers, got {q.tolist()}")
+    largest = float(np.abs(q).max())
+    if largest == 0.0:
+        raise ValueError("quaternion must be non-zero (any length: it is normalized), got [0, 0, 0, 0]")
+    q = q / largest
+    w, x, y, z = (q / np.linalg.norm(q)).tolist()
     return (w, x, y, z)
 
 

@@ -9,7 +9,7 @@ from fastapi import FastAPI
 from guard.asgi import AccessGuard
 from guard.body_limit import BodyLimitMiddleware
 from guard.json_body import StrictJsonBody
-from server.commands import CommandBook, CommandRecord
+from server.commands import CommandBook, CommandIds, CommandRecord
 from server.config import BODY_LIMIT_BYTES, HISTORY_MAX, QUEUE_MAX, ServerConfig
 from server.errors import install_error_handlers
 from server.models import COMMON_RESPONSES
@@ -21,6 +21,8 @@ from server.waiters import Waiters
 
 
 def create_app(config: ServerConfig) -> FastAPI:
+    ids = CommandIds(config.ids_file())  # here, not in lifespan: a bad record stops `ptwl serve` in a line
+
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         loop = asyncio.get_running_loop()
@@ -46,7 +48,7 @@ def create_app(config: ServerConfig) -> FastAPI:
             if recording is not None:
                 recording.state(text)
 
-        book = CommandBook(QUEUE_MAX, HISTORY_MAX, on_change)
+        book = CommandBook(QUEUE_MAX, HISTORY_MAX, on_change, ids, config.sent_at_skew_s)
         runner = SimRunner(config.scene, config.seed, config.telemetry_hz, book, publish)
         if config.record is not None:
             recording = RecordingThread(config.record, session_metadata(config))

@@ -7,19 +7,29 @@ Every status change (queued, running, done, dropped) goes through `_changed`, wh
 record to the one listener that publishes its event and wakes its waiters; it is called under
 the lock, so events leave in the order the changes happened, whichever thread made them.
 
-Ids never repeat, across restarts too: the first is the boot time in microseconds, and each
-command takes the next integer. A later boot starts past every id an earlier one could have
-given out (that would take more than one command per microsecond); `instance` tells boots
-apart for a client that saw the robot restart.
+Ids never repeat and only grow, across restarts too, whatever the wall clock does (CommandIds):
+each command takes the next integer, from a start past both the wall clock in microseconds and
+every id an earlier run put on record. A run records ids in blocks before it gives them out
+(one small file write per ID_BLOCK commands, atomically replaced), so a crash loses at most the
+rest of a block, never an id's uniqueness; a clock stepped back across a restart (NTP, a VM
+restored) cannot bring an old id back. `instance` tells runs apart for a client that saw the
+robot restart.
+
+A command's `sent_at` (the sender's clock) more than the allowed skew in the future is refused
+at submission (FutureSentAtError, a 422): judged against it, `max_age` would never run out.
 """
 
+import fcntl
+import json
 import math
+import os
 import secrets
 import threading
 import time
 from collections import OrderedDict, deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from robot_sim.behaviors import BehaviorReport
@@ -27,6 +37,7 @@ from robot_sim.behaviors.base import ExitCondition, Pose
 from robot_sim.executor import CommandParams
 from robot_sim.policies.run import StepRecord
 from robot_sim.task_frames import frames_named
+from server.config import SENT_AT_SKEW_S
 from server.models import CommandStatus, MachineStepModel, PoseModel
 
 
@@ -35,6 +46,95 @@ class QueueFullError(Exception):
         super().__init__(
             f"command queue is full ({limit} queued); wait for commands to finish or POST /api/stop"
         )
+
+
+class FutureSentAtError(ValueError):
+    """A command stamped `sent_at` further ahead of the robot's clock than the allowed skew."""
+
+    field = "sent_at"
+
+    def __init__(self, sent_at_s: float, now_s: float, skew_s: float) -> None:
+        super().__init__(
+            f"must be in [0, now + {skew_s:g}] s (Unix time; now is {now_s:.3f} on the robot's clock, "
+            f"which the sender's may lead by at most {skew_s:g} s), got {sent_at_s:.6g}"
+        )
+
+
+ID_BLOCK = 4096  # ids put on record per write of the state file
+
+
+def _wall_clock_us() -> int:
+    return time.time_ns() // 1000
+
+
+class CommandIds:
+    """Command ids that only grow, across restarts too, even when the wall clock steps back.
+
+    The state file holds `{"next_id": N}`: every id an earlier run gave out is below N. Before a
+    run gives out ids it puts a block of them on record (N moves up by ID_BLOCK), so a crash
+    leaves N past everything given out. A run starts at max(N, clock in microseconds): past the
+    old run's ids whatever the clock says, and near the clock so ids still read as a time. The
+    file is read, moved up and replaced under an exclusive lock, so two servers on one data dir
+    never take the same block. `state_file=None` keeps nothing (tests, a one-off book): ids then
+    start at the clock, and only the clock keeps them apart across runs.
+    """
+
+    def __init__(self, state_file: Path | None, clock_us: Callable[[], int] = _wall_clock_us) -> None:
+        self._file = state_file
+        self._clock_us = clock_us
+        self._next = 0
+        self._on_record = 0  # ids below this are on record as given out
+        self._reserve()
+
+    def take(self) -> int:
+        """The next id (callers serialise: the book takes it under its lock)."""
+        if self._next >= self._on_record:
+            self._reserve()
+        taken = self._next
+        self._next += 1
+        return taken
+
+    def _reserve(self) -> None:
+        if self._file is None:
+            self._next = max(self._next, self._clock_us())
+            self._on_record = self._next + ID_BLOCK
+            return
+        lock_path = self._file.with_name(self._file.name + ".lock")
+        with open(lock_path, "a") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
+            start = max(self._next, _recorded_next_id(self._file), self._clock_us())
+            _write_atomically(self._file, json.dumps({"next_id": start + ID_BLOCK}))
+        self._next = start
+        self._on_record = start + ID_BLOCK
+
+
+def _recorded_next_id(path: Path) -> int:
+    """The state file's `next_id`; 0 when there is no file yet. A file that says something else
+    is an error: starting from the clock alone could repeat an id."""
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        return 0
+    try:
+        value = json.loads(text)["next_id"]
+    except (ValueError, KeyError, TypeError):
+        value = None
+    if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+        raise ValueError(
+            f"{path}: not a command id record ({text[:60]!r}); restore it, or delete it only if no "
+            "client still holds ids from this robot"
+        )
+    return value
+
+
+def _write_atomically(path: Path, text: str) -> None:
+    """Replace `path` with `text` so a reader (or a crash) sees the old file or the new, whole."""
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "w") as f:
+        f.write(text)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
 
 
 def _finite(values: Sequence[float]) -> list[float] | None:
@@ -118,7 +218,15 @@ Listener = Callable[[CommandRecord], None]
 
 
 class CommandBook:
-    def __init__(self, queue_max: int, history_max: int, on_change: Listener | None = None) -> None:
+    def __init__(
+        self,
+        queue_max: int,
+        history_max: int,
+        on_change: Listener | None = None,
+        ids: CommandIds | None = None,
+        sent_at_skew_s: float = SENT_AT_SKEW_S,
+        wall_clock_s: Callable[[], float] = time.time,
+    ) -> None:
         self._lock = threading.Lock()
         self._queue: deque[CommandRecord] = deque()
         self._records: OrderedDict[int, CommandRecord] = OrderedDict()
@@ -126,7 +234,9 @@ class CommandBook:
         self._history_max = history_max
         self._on_change: Listener = on_change or (lambda record: None)
         self.instance = secrets.token_hex(4)
-        self._next_id = time.time_ns() // 1000
+        self._ids = ids if ids is not None else CommandIds(None)
+        self._sent_at_skew_s = sent_at_skew_s
+        self._wall_clock_s = wall_clock_s
         self.running: CommandRecord | None = None
 
     def _changed(self, record: CommandRecord) -> None:
@@ -134,13 +244,15 @@ class CommandBook:
         self._on_change(record)
 
     def submit(self, params: CommandParams, sender: str | None = None) -> CommandRecord:
+        now_s = self._wall_clock_s()
+        if params.sent_at is not None and params.sent_at > now_s + self._sent_at_skew_s:
+            raise FutureSentAtError(params.sent_at, now_s, self._sent_at_skew_s)
         with self._lock:
             if len(self._queue) >= self._queue_max:
                 raise QueueFullError(self._queue_max)
             record = CommandRecord(
-                self._next_id, self.instance, params, params.model_dump(), time.time(), sender=sender
+                self._ids.take(), self.instance, params, params.model_dump(), now_s, sender=sender
             )
-            self._next_id += 1
             self._queue.append(record)
             self._records[record.id] = record
             self._trim()
@@ -165,7 +277,7 @@ class CommandBook:
                 return None
             while self._queue:
                 record = self._queue.popleft()
-                reason = record.params.expiry_reason(time.time(), sim_time_s)
+                reason = record.params.expiry_reason(self._wall_clock_s(), sim_time_s)
                 if reason is not None:
                     self._end_unstarted(record, ExitCondition.EXPIRED, reason)
                     continue
@@ -180,7 +292,7 @@ class CommandBook:
         """(under the lock)"""
         record.goal = start(record)
         record.status = "running"
-        record.started_at = time.time()
+        record.started_at = self._wall_clock_s()
         self.running = record
         self._changed(record)
         return record
@@ -195,7 +307,7 @@ class CommandBook:
             record.exit = report.exit.value
             record.report = report
             record.detail = report.detail
-            record.ended_at = time.time()
+            record.ended_at = self._wall_clock_s()
             self.running = None
             self._changed(record)
             return record
@@ -222,7 +334,7 @@ class CommandBook:
         record.status = "done"
         record.exit = exit.value
         record.detail = detail
-        record.ended_at = time.time()
+        record.ended_at = self._wall_clock_s()
         self._changed(record)
 
     def get(self, command_id: int) -> CommandStatus | None:

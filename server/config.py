@@ -1,6 +1,7 @@
 """Server settings (command line and environment)."""
 
-from dataclasses import dataclass
+import os
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from guard.access import AccessConfigError, AccessPolicy, check_token_setting, is_loopback
@@ -10,6 +11,15 @@ from recording.paths import check_record_path
 DEFAULT_PORT = 8000
 QUEUE_MAX = 64  # queued commands; beyond it POST /api/commands answers 429
 HISTORY_MAX = 1000  # finished commands kept for GET /api/commands
+SENT_AT_SKEW_S = 5.0  # [s] default: how far a sender's clock may lead the robot's (sent_at)
+MAX_SENT_AT_SKEW_S = 3600.0  # [s] more would let a stamp defeat max_age by an hour or more
+IDS_FILE = "command-ids.json"  # in the data dir: ids on record, so none repeats after a restart
+
+
+def default_data_dir() -> Path:
+    """Where the server keeps what must outlive a run: $XDG_STATE_HOME/ptwl, ~/.local/state/ptwl."""
+    state_home = os.environ.get("XDG_STATE_HOME") or str(Path.home() / ".local" / "state")
+    return Path(state_home) / "ptwl"
 
 
 ConfigError = AccessConfigError  # a setting that cannot work; the message says what to do
@@ -29,6 +39,11 @@ class ServerConfig:
     allow_hosts: tuple[str, ...] = ()  # Host names beyond the bind address (a DNS name, a proxy's)
     allow_origins: tuple[str, ...] = ()  # browser origins beyond the server's own
     record: Path | None = None  # an MCAP file to record the session into
+    data_dir: Path = field(default_factory=default_data_dir)  # the command id record lives here
+    sent_at_skew_s: float = SENT_AT_SKEW_S
+
+    def ids_file(self) -> Path:
+        return self.data_dir / IDS_FILE
 
     def access(self) -> AccessPolicy:
         return AccessPolicy(self.host, self.port, self.token, self.allow_hosts, self.allow_origins)
@@ -39,3 +54,13 @@ class ServerConfig:
             check_record_path(self.record)
         if not 1.0 <= self.telemetry_hz <= 500.0:
             raise ConfigError(f"--telemetry-hz must be in [1, 500], got {self.telemetry_hz:g}")
+        if not 0.0 <= self.sent_at_skew_s <= MAX_SENT_AT_SKEW_S:  # NaN fails this too
+            raise ConfigError(
+                f"--sent-at-skew must be in [0, {MAX_SENT_AT_SKEW_S:g}] s, got {self.sent_at_skew_s:g}"
+            )
+        try:
+            self.data_dir.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise ConfigError(f"--data-dir {self.data_dir} cannot be created: {err.strerror}") from None
+        if not os.access(self.data_dir, os.W_OK | os.X_OK):
+            raise ConfigError(f"--data-dir {self.data_dir} is not writable (command ids are kept there)")

@@ -3,6 +3,7 @@
 Domain errors become HTTP errors here and only here (STYLE 4).
 """
 
+import re
 from typing import Any
 
 from fastapi import FastAPI, Request
@@ -12,14 +13,21 @@ from fastapi.routing import APIRoute
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from robot_sim.errors import UnknownNameError
-from server.commands import QueueFullError
+from server.commands import FutureSentAtError, QueueFullError
 
 _TAGS = {"ptwl", "rwe", "dither"}
 
 
+# pydantic's label for a validator-wrapped union member (`function-after[_pose_in_reach(),
+# TypedPose]`): not a field, so `pose.quaternion` reads as the client wrote it.
+_WRAPPER = re.compile(r"^function-(after|before|wrap|plain)\[.*\]$")
+
+
 def _field(loc: tuple[Any, ...]) -> str:
     """`body.ptwl.duration` -> `duration`; list indices as `translation[1]`."""
-    parts = [p for p in loc if p not in ("body", "query", "path") and p not in _TAGS]
+    parts = [
+        p for p in loc if p not in ("body", "query", "path") and p not in _TAGS and not _WRAPPER.match(str(p))
+    ]
     text = ""
     for part in parts:
         text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
@@ -80,6 +88,10 @@ def install_error_handlers(app: FastAPI) -> None:
             # One path can have several routes (GET and POST /api/commands): list them all.
             headers["Allow"] = ", ".join(sorted(_methods_for(app, request.url.path)))
         return JSONResponse({"detail": exc.detail}, status_code=exc.status_code, headers=headers)
+
+    @app.exception_handler(FutureSentAtError)
+    async def _future_sent_at(_: Request, exc: FutureSentAtError) -> JSONResponse:
+        return validation_response([{"loc": ("body", exc.field), "msg": str(exc), "type": "value_error"}])
 
     @app.exception_handler(QueueFullError)
     async def _queue_full(_: Request, exc: QueueFullError) -> JSONResponse:

@@ -4,6 +4,7 @@ Behavior parameters are robot_sim.params' models themselves, so the API, the con
 the library validate the same way.
 """
 
+import math
 from typing import Annotated, Any, Literal
 
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
@@ -19,6 +20,7 @@ from robot_sim.params import (
     StateMachineParams,
 )
 from robot_sim.scenes import SCENES, get_scene
+from robot_sim.task_frames import unit_quaternion
 
 Command = Annotated[
     PtwlParams | RweParams | DitherParams | GripperParams | StateMachineParams, Field(discriminator="type")
@@ -145,7 +147,11 @@ class TaskProgressModel(BaseModel):
 class ActiveGainsModel(BaseModel):
     stiffness: list[float] = Field(description="[N/m x3, N m/rad x3] diagonal K")
     damping: list[float] = Field(description="[N s/m x3, N m s/rad x3] diagonal B")
-    frame: Literal["base", "tool"] = Field(description="the axes of the diagonal")
+    # Any frame name a command's `gains_frame` may give (was base/tool only: GET /api/state
+    # answered 500 after a PTWL with gains_frame "plate_normal"). A scene reset falls back to
+    # base axes when the new scene has no frame of that name (robot_sim/sim.py), so the name is
+    # always one GET /api/frames lists or a built-in.
+    frame: FrameName = Field(description="the axes of the diagonal: `base`, `tool` or a task frame's name")
 
 
 class MonitorModel(BaseModel):
@@ -305,6 +311,40 @@ QUEUE_FULL_RESPONSES: dict[int | str, dict[str, Any]] = {
         "headers": {"Retry-After": {"description": "[s] when to try again", "schema": {"type": "integer"}}},
     },
 }
+# OpenAPI links: which request may follow an answer, and with what from it. They document the
+# API's flows, and schemathesis's stateful phase follows them (tests/test_openapi_fuzz.py): a
+# defect that needs two requests (GET /api/state failed 500 after a PTWL whose gains_frame named
+# a task frame) is found only along such a path.
+_STATE_LINK = {
+    "operationRef": "#/paths/~1api~1state/get",
+    "description": "the robot's state, gains included",
+}
+SUBMIT_RESPONSES: dict[int | str, dict[str, Any]] = {
+    202: {
+        "description": "queued",
+        "links": {
+            "StateAfterCommand": _STATE_LINK,
+            "FollowCommand": {
+                "operationRef": "#/paths/~1api~1commands~1{command_id}/get",
+                "parameters": {"path.command_id": "$response.body#/id"},
+                "description": "the command's status (`?wait=` until it ends)",
+            },
+        },
+    },
+    **QUEUE_FULL_RESPONSES,
+}
+# After a frame is added: a PTWL whose gains are diagonal in it (then GET /api/state, above).
+_GAINS_IN_FRAME = {
+    "operationRef": "#/paths/~1api~1commands/post",
+    "description": "a PTWL with its stiffness and damping diagonal in the new frame",
+    "requestBody": {
+        "type": "ptwl",
+        "gains_frame": "$response.body#/name",
+        "preset": "medium",
+        "duration": 0.5,
+    },
+    "x-schemathesis": {"merge_body": False},  # this body as it is, not mixed with a generated one
+}
 NOT_FOUND_RESPONSES: dict[int | str, dict[str, Any]] = {
     404: _error("no command with that id (kept: last 1000)")
 }
@@ -331,21 +371,24 @@ MAX_FRAME_POSITION_M = 2.0  # the arm reaches ~0.6 m: a frame further out is a t
 
 
 def _pose_in_reach(pose: PoseModel) -> PoseModel:
-    norm = sum(v * v for v in pose.position) ** 0.5
+    norm = math.hypot(*pose.position)  # no overflow: a sum of squares of 1e200 is inf
     if norm > MAX_FRAME_POSITION_M:
         raise ValueError(
             f"pose.position must be within {MAX_FRAME_POSITION_M:g} m of the base, got {norm:.3g} m"
         )
-    if sum(v * v for v in pose.quaternion) < 1e-12:
-        raise ValueError("pose.quaternion must be non-zero (it is normalized)")
     return pose
+
+
+def _unit(quaternion: list[float]) -> list[float]:
+    """Normalized once, here (task_frames.unit_quaternion: no overflow, refuses all-zero)."""
+    return list(unit_quaternion(quaternion))
 
 
 class TypedPose(PoseModel):
     model_config = ConfigDict(strict=True, extra="forbid", allow_inf_nan=False)
     position: Annotated[list[float], Field(min_length=3, max_length=3)] = Field(description="[m] base frame")
-    quaternion: Annotated[list[float], Field(min_length=4, max_length=4)] = Field(
-        description="w x y z, base frame (any length; normalized)"
+    quaternion: Annotated[list[float], Field(min_length=4, max_length=4), AfterValidator(_unit)] = Field(
+        description="w x y z, base frame (any length but zero; normalized)"
     )
 
 
@@ -359,12 +402,23 @@ class FrameRequest(BaseModel):
     )
 
 
+# A command's status, then the state: by then (`?wait=`) the command has started, and its gains
+# are the ones GET /api/state reports.
+COMMAND_STATUS_RESPONSES: dict[int | str, dict[str, Any]] = {
+    200: {"description": "the command", "links": {"StateAfterCommandStatus": _STATE_LINK}},
+    **NOT_FOUND_RESPONSES,
+}
+
 FRAME_CONFLICT_RESPONSES: dict[int | str, dict[str, Any]] = {
     409: _error(
         "a frame of that name exists, is built in or the scene's own, queued commands name it, "
         "or the scene holds its most operator frames (64)"
     ),
     **SIM_RESPONSES,
+}
+ADD_FRAME_RESPONSES: dict[int | str, dict[str, Any]] = {
+    201: {"description": "added", "links": {"PtwlWithGainsInFrame": _GAINS_IN_FRAME}},
+    **FRAME_CONFLICT_RESPONSES,
 }
 FRAME_NOT_FOUND_RESPONSES: dict[int | str, dict[str, Any]] = {
     404: _error("no task frame of that name"),

@@ -41,7 +41,8 @@ def test_absurd_displacements() -> None:
     [
         ("force_threshold", "(0, 500] N"),
         ("torque_threshold", "(0, 50] N m"),
-        ("position_tolerance", "(0, inf)"),
+        ("position_tolerance", "(0, 1] m"),
+        ("orientation_tolerance", "(0, 3.14159] rad"),
     ],
 )
 def test_thresholds_must_be_positive_and_capped(field: str, allowed: str) -> None:

@@ -73,7 +73,7 @@ BAD_COMMANDS = {
     "valid_until_sim_time_negative": (
         '{"type": "dither", "valid_until_sim_time": -1}',
         422,
-        ["valid_until_sim_time", "[0, inf) s"],
+        ["valid_until_sim_time", "[0, 1e+09] s"],
     ),
     "monitor_forgetting_below_half": (
         '{"type": "ptwl", "monitor": {"forgetting": [0.2, 0.99]}}',

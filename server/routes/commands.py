@@ -9,12 +9,12 @@ from guard.disconnect import client_gone
 from robot_sim.impact import impact_warnings
 from robot_sim.params import GripperParams, PtwlParams, StateMachineParams
 from server.models import (
-    NOT_FOUND_RESPONSES,
-    QUEUE_FULL_RESPONSES,
+    COMMAND_STATUS_RESPONSES,
     SENDER_DOC,
     SENDER_HEADER,
     SENDER_PATTERN,
     SIM_RESPONSES,
+    SUBMIT_RESPONSES,
     Command,
     CommandAccepted,
     CommandStatus,
@@ -32,7 +32,7 @@ MAX_WAIT_S = 60.0
     "/commands",
     status_code=status.HTTP_202_ACCEPTED,
     response_model=CommandAccepted,
-    responses=QUEUE_FULL_RESPONSES,
+    responses=SUBMIT_RESPONSES,
 )
 async def submit_command(
     request: Request,
@@ -82,7 +82,7 @@ async def list_commands(
     return book.recent(limit)
 
 
-@router.get("/commands/{command_id}", response_model=CommandStatus, responses=NOT_FOUND_RESPONSES)
+@router.get("/commands/{command_id}", response_model=CommandStatus, responses=COMMAND_STATUS_RESPONSES)
 async def get_command(
     request: Request,
     command_id: int,

@@ -6,7 +6,7 @@ from robot_sim.behaviors.base import Pose
 from robot_sim.errors import UnknownNameError
 from robot_sim.task_frames import FrameInUseError, FrameLimitError, TaskFrame, frame_dict
 from server.models import (
-    FRAME_CONFLICT_RESPONSES,
+    ADD_FRAME_RESPONSES,
     FRAME_NOT_FOUND_RESPONSES,
     SIM_RESPONSES,
     FrameModel,
@@ -32,7 +32,7 @@ async def list_frames(runner: Runner) -> list[FrameModel]:
     "/frames",
     status_code=status.HTTP_201_CREATED,
     response_model=FrameModel,
-    responses=FRAME_CONFLICT_RESPONSES,
+    responses=ADD_FRAME_RESPONSES,
 )
 async def add_frame(body: FrameRequest, runner: Runner) -> FrameModel:
     """Add a task frame at the tool's pose now (`"pose": "tool"`) or at a typed pose. It lasts
