@@ -10,6 +10,9 @@
   lost. Ping/pong is answered per hop, undelayed: with multi-second delays a delayed pong would
   trip the 20 s keepalive of websockets/uvicorn and kill healthy connections. Whether the robot
   is alive is judged end to end from the telemetry's age (`sent_at`), not from pings.
+- A client's downlink messages wait in its outbox (guard/outbox.py, the robot's rule too): a
+  state not yet sent is replaced by the newer one, events wait up to 256, then the client is
+  closed with 1013; so a client that never reads costs at most that, not a queue that grows.
 - `/_link/...` is the control API: local, never delayed, never forwarded.
 - Access (guard/): Host, Origin and the token are checked on every route and socket before
   anything is delayed or forwarded; the upstream sees no Origin (it was judged here). Bodies
@@ -41,6 +44,7 @@ from guard.asgi import AccessGuard
 from guard.body_limit import BODY_LIMIT_BYTES, BodyLimitMiddleware
 from guard.disconnect import client_gone
 from guard.json_body import JsonBodyError, StrictJsonBody, parse_json
+from guard.outbox import Close, Outbox
 from latency.clock import RealTimeDriver
 from latency.delay_line import Dropped
 from latency.link import Link
@@ -64,7 +68,6 @@ KEEPALIVE_EXPIRY_S = 2.0  # below uvicorn's 5 s idle timeout: never reuse a conn
 UPSTREAM_TIMEOUT_S = 90.0  # long-polls wait up to 60 s upstream
 IDEMPOTENT = {"GET", "HEAD", "OPTIONS", "PUT", "DELETE"}  # safe to retry on a dropped connection
 CLOSE_UPSTREAM_LOST = 1012  # "service restart": reconnect
-_CLOSE = object()
 
 
 def _forward_headers(headers: Any) -> dict[str, str]:
@@ -266,7 +269,7 @@ class LinkProxy:
             await ws.send_denial_response(JSONResponse({"detail": detail}, 502))
             return
         await ws.accept()
-        to_client: asyncio.Queue[Any] = asyncio.Queue()
+        to_client = Outbox()  # bounded: states replaced, events up to a backlog, then 1013
         to_upstream: asyncio.Queue[Any] = asyncio.Queue()
         tasks = [
             asyncio.create_task(self._client_to_link(ws, to_upstream)),
@@ -282,9 +285,9 @@ class LinkProxy:
             await asyncio.gather(*tasks, return_exceptions=True)
             await upstream.close()
 
-    def _admit_ws(self, direction: str, message: Any, queue: "asyncio.Queue[Any]") -> None:
+    def _admit_ws(self, direction: str, message: Any, put: Callable[[Any], None]) -> None:
         size = len(message) if isinstance(message, str | bytes) else 0
-        self.link.admit(direction, size, "ws", lambda: queue.put_nowait(message))
+        self.link.admit(direction, size, "ws", lambda: put(message))
         self._release_or_schedule(direction)
 
     async def _client_to_link(self, ws: WebSocket, to_upstream: "asyncio.Queue[Any]") -> None:
@@ -295,37 +298,37 @@ class LinkProxy:
                     return
                 data = message.get("text") if message.get("text") is not None else message.get("bytes")
                 if data is not None:
-                    self._admit_ws("uplink", data, to_upstream)
+                    self._admit_ws("uplink", data, to_upstream.put_nowait)
 
     async def _link_to_upstream(self, upstream: Any, to_upstream: "asyncio.Queue[Any]") -> None:
         with contextlib.suppress(websockets.ConnectionClosed):
             while True:
                 await upstream.send(await to_upstream.get())
 
-    async def _upstream_to_link(self, upstream: Any, to_client: "asyncio.Queue[Any]") -> None:
+    async def _upstream_to_link(self, upstream: Any, to_client: Outbox) -> None:
         code, reason = CLOSE_UPSTREAM_LOST, "upstream connection lost"
         try:
             async for message in upstream:
-                self._admit_ws("downlink", message, to_client)
+                if to_client.too_slow:
+                    return  # its socket is closing: what comes now would only wait
+                self._admit_ws("downlink", message, to_client.put)
             code = upstream.close_code or 1000
             reason = f"upstream closed: {upstream.close_reason or 'normal closure'}"
         except websockets.ConnectionClosed:
             pass
         # The close travels the downlink behind the data already in flight.
         assert self.driver is not None
-        self.link.admit(
-            "downlink", 0, "ws_close", lambda: to_client.put_nowait((_CLOSE, code, reason)), lossy=False
-        )
+        self.link.admit("downlink", 0, "ws_close", lambda: to_client.put(Close(code, reason)), lossy=False)
         self.driver.notify("downlink")
 
-    async def _link_to_client(self, ws: WebSocket, to_client: "asyncio.Queue[Any]") -> None:
+    async def _link_to_client(self, ws: WebSocket, to_client: Outbox) -> None:
         with contextlib.suppress(WebSocketDisconnect, RuntimeError):
             while True:
                 message = await to_client.get()
-                if isinstance(message, tuple) and message and message[0] is _CLOSE:
-                    _, code, reason = message
+                if isinstance(message, Close):
+                    code = message.code
                     valid = code if 1000 <= code < 5000 and code not in (1005, 1006, 1015) else 1011
-                    await ws.close(valid, reason[:120])
+                    await ws.close(valid, message.reason[:120])
                     return
                 if isinstance(message, bytes):
                     await ws.send_bytes(message)

@@ -1,49 +1,39 @@
 """Fan-out of telemetry and command events to WebSocket clients (event-loop side).
 
-Each client has its own bounded queue; `publish` never waits. A client whose queue fills (it
-reads slower than we send) is disconnected with a reason rather than slowing anyone else;
-it may reconnect and will get the latest state.
+Each client has its own outbox (guard/outbox.py, the same rule as the link's): `publish` never
+waits; a state waiting for a slow reader is replaced by the newer one; a client that falls more
+than EVENT_BACKLOG events behind is closed with 1013 rather than slowing anyone else, and may
+reconnect for the latest state.
 """
 
-import asyncio
 import time
-from dataclasses import dataclass, field
 
-CLIENT_BACKLOG = 256  # messages (~5 s at 50 Hz) a client may fall behind before it is dropped
-
-
-@dataclass(eq=False)
-class Subscription:
-    queue: asyncio.Queue[str] = field(default_factory=lambda: asyncio.Queue(CLIENT_BACKLOG))
-    too_slow: bool = False
+from guard.outbox import Outbox
 
 
 class Broadcaster:
     def __init__(self) -> None:
-        self._subs: set[Subscription] = set()
-        self.dropped_clients = 0
+        self._subs: set[Outbox] = set()
 
-    def subscribe(self) -> Subscription:
-        sub = Subscription()
+    def subscribe(self) -> Outbox:
+        sub = Outbox()
         self._subs.add(sub)
         return sub
 
-    def unsubscribe(self, sub: Subscription) -> None:
+    def unsubscribe(self, sub: Outbox) -> None:
         self._subs.discard(sub)
 
     @property
     def clients(self) -> int:
         return len(self._subs)
 
+    @property
+    def dropped_clients(self) -> int:
+        return sum(sub.too_slow for sub in self._subs)
+
     def publish(self, text: str) -> None:
         for sub in self._subs:
-            if sub.too_slow:
-                continue
-            try:
-                sub.queue.put_nowait(text)
-            except asyncio.QueueFull:
-                sub.too_slow = True
-                self.dropped_clients += 1
+            sub.put(text)
 
 
 def stamped(text: str) -> str:

@@ -1,9 +1,11 @@
 """The link proxy as an attacker and a careless user would try it (issue 9, holes 2, 6 and 7)."""
 
 import asyncio
+import base64
 import json
 import os
 import signal
+import socket
 import threading
 import time
 from collections.abc import Iterator
@@ -14,6 +16,7 @@ from typing import ClassVar
 import httpx
 import pytest
 import websockets
+import websockets.sync.client
 
 from ptwl.launcher import ServiceProcess, running_proxy, running_server
 
@@ -197,3 +200,46 @@ def test_upstream_urls_can_only_name_the_upstream() -> None:
     assert odd is not None and (odd.host, odd.port) == ("127.0.0.1", 8000)
     ws = proxy._upstream_target("/api/telemetry", "token=t", "ws")
     assert str(ws) == "ws://127.0.0.1:8000/api/telemetry?token=t"
+
+
+def _rss_mb(pid: int) -> float:
+    return int(Path(f"/proc/{pid}/statm").read_text().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+
+def _stalled_telemetry_client(url: str) -> socket.socket:
+    """A WebSocket on the telemetry socket that never reads a byte after its handshake."""
+    host, port = url.removeprefix("http://").split(":")
+    sock = socket.create_connection((host, int(port)))
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    key = base64.b64encode(os.urandom(16)).decode()
+    sock.sendall(
+        f"GET /api/telemetry HTTP/1.1\r\nHost: {host}:{port}\r\nUpgrade: websocket\r\n"
+        f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n".encode()
+    )
+    assert sock.recv(12) == b"HTTP/1.1 101"
+    return sock
+
+
+def test_link_memory_stays_flat_for_telemetry_clients_that_never_read() -> None:
+    """Issue 26: each stalled client grew the link by ~72 KB/s at 50 Hz (96 -> 122 MB in 120 s
+    with 3). At 500 Hz (~0.7 MB/s a client) 3 stalled clients for 10 s would add ~20 MB."""
+    with (
+        running_server("--scene", "free_space", "--telemetry-hz", "500") as robot,
+        running_proxy(robot.url) as link,
+    ):
+        stalled = [_stalled_telemetry_client(link.url) for _ in range(3)]
+        try:
+            time.sleep(2.0)  # the kernel's socket buffers fill; what waits after that is ours
+            before = _rss_mb(link.process.pid)
+            time.sleep(10.0)
+            grown_mb = _rss_mb(link.process.pid) - before
+            # A reader on the same link still gets states at the robot's rate.
+            with websockets.sync.client.connect(
+                link.url.replace("http://", "ws://") + "/api/telemetry"
+            ) as ws:
+                seqs = [json.loads(ws.recv(timeout=5.0)).get("seq") for _ in range(50)]
+        finally:
+            for sock in stalled:
+                sock.close()
+        assert grown_mb < 4.0, grown_mb
+        assert [s for s in seqs if s is not None] == sorted(s for s in seqs if s is not None)

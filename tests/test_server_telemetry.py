@@ -8,8 +8,9 @@ import time
 import pytest
 import websockets
 
+from guard.outbox import EVENT_BACKLOG, Close
 from ptwl.launcher import ServiceProcess
-from server.telemetry import CLIENT_BACKLOG, Broadcaster
+from server.telemetry import Broadcaster
 
 WINDOW_S = 3.0
 pytestmark = pytest.mark.usefixtures("no_gc_pauses")  # rates are timed in this process
@@ -87,15 +88,33 @@ async def _health(server: ServiceProcess) -> str:
         return (await client.get(server.url + "/api/health")).text
 
 
-def test_broadcaster_drops_a_client_that_falls_behind() -> None:
+def test_a_slow_reader_gets_the_latest_state_and_is_closed_only_past_the_event_backlog() -> None:
     async def main() -> None:
         broadcaster = Broadcaster()
         slow, fast = broadcaster.subscribe(), broadcaster.subscribe()
-        for i in range(CLIENT_BACKLOG + 5):
-            broadcaster.publish(f'{{"seq": {i}}}')
-            fast.queue.get_nowait()  # keeps up
-        assert slow.too_slow and not fast.too_slow
-        assert broadcaster.dropped_clients == 1
-        assert slow.queue.qsize() == CLIENT_BACKLOG  # nothing more was queued for it
+        for seq in range(1000):  # 20 s of states at 50 Hz, read by one client only
+            broadcaster.publish(f'{{"type": "state", "seq": {seq}}}')
+            await fast.get()
+        assert len(slow) == 1 and slow.replaced == 999 and not slow.too_slow
+        assert await slow.get() == '{"type": "state", "seq": 999}'  # the latest, not the oldest
+        # Events keep their order among states; a state's place moves after the events before it.
+        broadcaster.publish('{"type": "state", "seq": 1000}')
+        broadcaster.publish('{"type": "command", "id": 1}')
+        broadcaster.publish('{"type": "state", "seq": 1001}')
+        assert [await slow.get() for _ in range(2)] == [
+            '{"type": "command", "id": 1}',
+            '{"type": "state", "seq": 1001}',
+        ]
+        for i in range(EVENT_BACKLOG + 1):
+            broadcaster.publish(f'{{"type": "command", "id": {i}}}')
+            if i < EVENT_BACKLOG:
+                assert not slow.too_slow
+            await fast.get()  # keeps up
+        assert slow.too_slow and not fast.too_slow and broadcaster.dropped_clients == 1
+        assert len(slow) == 1 and await slow.get() == Close(
+            1013, f"client too slow: fell {EVENT_BACKLOG} events behind"
+        )
+        broadcaster.publish('{"type": "command", "id": -1}')
+        assert len(slow) == 0  # nothing more is kept for it
 
     asyncio.run(main())

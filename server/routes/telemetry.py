@@ -10,11 +10,10 @@ import contextlib
 
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 
-from server.telemetry import CLIENT_BACKLOG, Broadcaster, stamped
+from guard.outbox import Close
+from server.telemetry import Broadcaster, stamped
 
 router = APIRouter(tags=["telemetry"])
-
-CLOSE_TOO_SLOW = 1013  # "try again later"
 
 
 async def _until_closed(ws: WebSocket) -> None:
@@ -32,20 +31,20 @@ async def telemetry(ws: WebSocket) -> None:
     sub = broadcaster.subscribe()
     # First the task frames whole: later `frames` messages carry only what changed. Taken after
     # subscribing, so no change falls between (one already in it comes again: older `rev`, skipped).
-    sub.queue.put_nowait(ws.app.state.runner.frames_text)
+    sub.put(ws.app.state.runner.frames_text)
     closed = asyncio.create_task(_until_closed(ws))
     try:
         while True:
-            next_message = asyncio.create_task(sub.queue.get())
+            next_message = asyncio.create_task(sub.get())
             done, _ = await asyncio.wait({next_message, closed}, return_when=asyncio.FIRST_COMPLETED)
             if closed in done:
                 next_message.cancel()
                 return
-            if sub.too_slow:
-                await ws.close(CLOSE_TOO_SLOW, f"client too slow: fell {CLIENT_BACKLOG} messages behind")
+            message = next_message.result()
+            if isinstance(message, Close):
+                await ws.close(message.code, message.reason)
                 return
-            text = next_message.result()
-            await ws.send_text(stamped(text))
+            await ws.send_text(stamped(str(message)))
     except (WebSocketDisconnect, RuntimeError):
         return
     finally:
