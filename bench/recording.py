@@ -34,9 +34,9 @@ FRAME_EVERY_S = 10
 RESET_EVERY_S = 600
 
 
-def write_session(path: Path, seconds: float) -> int:
-    """A session of `seconds` at HZ, written as the robot's recorder writes one; returns how
-    many states it holds."""
+def write_session(path: Path, seconds: float, reset_every_s: float = RESET_EVERY_S) -> int:
+    """A session of `seconds` at HZ, written as the robot's recorder writes one, a scene load
+    every `reset_every_s`; returns how many states it holds."""
     sim = Simulation("surface", None)
     template = {"type": "state", **state_fields(sim, moving_bodies(sim.model)), "active_command": None}
     geometry = {"scene": "surface", **scene_geometry(sim.model, sim.data)}
@@ -48,7 +48,7 @@ def write_session(path: Path, seconds: float) -> int:
     for i in range(states):
         t = i / HZ
         ns = T0_NS + int(t * 1e9)
-        if i % (RESET_EVERY_S * HZ) == 0:  # a scene load: a trial starts
+        if i % round(reset_every_s * HZ) == 0:  # a scene load: a trial starts
             out.geometry(geometry, ns)
             frames = list(base_frames["frames"])
             out.frames({**base_frames, "frames": frames}, ns)
