@@ -48,6 +48,9 @@ def frames_change_message(
 
 
 FramesNews = Literal["changed", "stale", "gap"]
+# GET /api/frames answers with the `rev` of the `frames` message its list matches, so a client
+# mending a lost change knows exactly which later changes still apply.
+FRAMES_REV_HEADER = "x-ptwl-frames-rev"
 
 
 class FramesMirror:
@@ -58,7 +61,8 @@ class FramesMirror:
     in `rev`). One with `added`/`removed` applies on top of `rev - 1`: an older one is already in
     the copy ("stale"); a newer one means one was lost on the link ("gap": fetch the whole list,
     GET /api/frames, and `replace`). State messages carry `frames_rev`, so a lost change shows
-    at the next state even when no other change follows."""
+    at the next state even when no other change follows. GET /api/frames gives its `rev` in the
+    FRAMES_REV_HEADER header."""
 
     def __init__(self) -> None:
         self.rev: int | None = None  # None until the first whole list

@@ -20,6 +20,7 @@ from websockets.exceptions import ConnectionClosedOK
 from websockets.sync.client import connect
 
 from guard.access import bearer_header
+from robot_sim.telemetry import FRAMES_REV_HEADER
 from server.models import (
     SENDER_HEADER,
     CommandAccepted,
@@ -68,6 +69,10 @@ class RobotClient:
         self._http.close()
 
     def _request(self, method: str, path: str, **kwargs: Any) -> Any:
+        return self._answer(method, path, **kwargs).json()
+
+    def _answer(self, method: str, path: str, **kwargs: Any) -> httpx.Response:
+        """The response, or RobotError with the server's `detail` for a 4xx/5xx."""
         response = self._http.request(method, path, **kwargs)
         if response.status_code >= 400:
             try:
@@ -75,7 +80,7 @@ class RobotClient:
             except ValueError:
                 detail = response.text
             raise RobotError(response.status_code, detail)
-        return response.json()
+        return response
 
     # --------------------------------------------------------------------- reads
     def health(self) -> HealthModel:
@@ -96,6 +101,13 @@ class RobotClient:
     def frames(self) -> list[FrameModel]:
         """The loaded scene's task frames (its own, then operators')."""
         return [FrameModel(**f) for f in self._request("GET", "/api/frames")]
+
+    def frames_at_rev(self) -> tuple[list[FrameModel], int | None]:
+        """The task frames and the `rev` of the telemetry `frames` message they match (None from a
+        server that does not say: a replay's stand-in)."""
+        response = self._answer("GET", "/api/frames")
+        rev = response.headers.get(FRAMES_REV_HEADER)
+        return [FrameModel(**f) for f in response.json()], int(rev) if rev is not None else None
 
     def add_frame(self, name: str, pose: "dict[str, list[float]] | str" = "tool") -> FrameModel:
         """A task frame at the tool's pose now (`"tool"`), or at `{"position", "quaternion"}`."""

@@ -108,9 +108,10 @@ class SimRunner:
         return stopped
 
     # ------------------------------------------------------------- task frames
-    def frames(self) -> list[TaskFrame]:
-        """(simulation thread) The loaded scene's task frames, its own first."""
-        return self.sim.frames.all()
+    def frames_listed(self) -> tuple[list[TaskFrame], int]:
+        """(simulation thread) The loaded scene's task frames (its own first) and the `rev` of the
+        `frames` message that announced them as they are (GET /api/frames)."""
+        return self.sim.frames.all(), self._frames_rev
 
     def add_frame(self, name: str, pose: Pose | None) -> TaskFrame:
         """(simulation thread) An operator's frame at `pose`, or at the port's pose now (None)."""

@@ -81,8 +81,9 @@ def test_an_add_costs_the_same_bytes_with_1_or_60_frames() -> None:
         before = len(published)
         runner.add_frame(f"frame_{i:02d}", Pose((0.4, 0.1, 0.3), (1.0, 0.0, 0.0, 0.0)))
         [message] = published[before:]  # one message an add
-        if len(runner.frames()) in (1, 60):
-            sizes[len(runner.frames())] = len(json.dumps(message))
+        count = len(runner.frames_listed()[0])
+        if count in (1, 60):
+            sizes[count] = len(json.dumps(message).encode())  # bytes on the wire
         assert message["added"][0]["name"] == f"frame_{i:02d}" and message["removed"] == []
         assert "frames" not in message
     # Byte for byte but the rev's digits (1 then 60); the whole list at 60 is ~45 times it.
@@ -133,8 +134,10 @@ def test_a_client_applying_the_changes_ends_with_get_api_frames(robot: RobotClie
             elif message["type"] == "state":
                 state_rev = message["frames_rev"]
                 assert state_rev == mirror.rev  # nothing lost on a direct socket
-    assert mirror.frames() == [f.model_dump() for f in robot.frames()]
+    listed, listed_rev = robot.frames_at_rev()
+    assert mirror.frames() == [f.model_dump() for f in listed]
     assert [f["name"] for f in mirror.frames()] == ["plate_normal", "a", "c", "d", "b"]
+    assert listed_rev == mirror.rev  # GET /api/frames says which message its list matches
 
 
 def test_the_mirror_skips_what_it_has_and_says_when_one_was_lost() -> None:
@@ -165,9 +168,10 @@ class _ScriptedRobot:
             time.sleep(0.02)  # only so the feed does not spin while the test waits
             yield {"type": "idle"}
 
-    def frames(self) -> list[FrameModel]:
+    def frames_at_rev(self) -> tuple[list[FrameModel], int | None]:
         self.frames_asked += 1
-        return [FrameModel.model_validate(f) for f in json.loads(self._runner.frames_text)["frames"]]
+        whole = json.loads(self._runner.frames_text)
+        return [FrameModel.model_validate(f) for f in whole["frames"]], whole["rev"]
 
 
 @pytest.mark.parametrize("lost", ["a_middle_change", "the_last_change"])

@@ -92,8 +92,8 @@ class TelemetryFeed(Worker):
             self._refetch_frames(rev)
 
     def _refetch_frames(self, rev: int) -> None:
-        """Fetch the whole list (at least as new as `rev`: asked after it was announced); one
-        fetch at a time, and a later state asks again if the link lost more meanwhile."""
+        """Fetch the whole list (GET /api/frames), one fetch at a time; a later state asks again
+        if the link lost more meanwhile."""
         with self._frames_lock:
             if self._refetching:
                 return
@@ -103,13 +103,15 @@ class TelemetryFeed(Worker):
 
     def _refetch(self, rev: int) -> None:
         try:
-            fetched = [f.model_dump() for f in self._client.frames()]
+            listed, listed_rev = self._client.frames_at_rev()
         except Exception:  # the link failed: the next state that finds the copy behind asks again
             with self._frames_lock:
                 self._refetching = False
             return
         with self._frames_lock:
-            self._frames.replace(fetched, rev)
+            # The list's own rev, so the changes after it still apply and no later state asks
+            # again; a replay does not say: the list is at least as new as `rev` (asked after it).
+            self._frames.replace([f.model_dump() for f in listed], rev if listed_rev is None else listed_rev)
             self._refetching = False
             if not self._closed.is_set():
                 self._on_frames(self._frames.frames())

@@ -1,10 +1,11 @@
 """Task frames: list the loaded scene's, add an operator's, delete one no command names."""
 
-from fastapi import APIRouter, HTTPException, status
+from fastapi import APIRouter, HTTPException, Response, status
 
 from robot_sim.behaviors.base import Pose
 from robot_sim.errors import UnknownNameError
 from robot_sim.task_frames import FrameInUseError, FrameLimitError, TaskFrame, frame_dict
+from robot_sim.telemetry import FRAMES_REV_HEADER
 from server.models import (
     ADD_FRAME_RESPONSES,
     FRAME_NOT_FOUND_RESPONSES,
@@ -21,11 +22,24 @@ def _model(frame: TaskFrame) -> FrameModel:
     return FrameModel.model_validate(frame_dict(frame))
 
 
-@router.get("/frames", response_model=list[FrameModel], responses=SIM_RESPONSES)
-async def list_frames(runner: Runner) -> list[FrameModel]:
+_LISTED = {
+    "description": "the task frames",
+    "headers": {
+        FRAMES_REV_HEADER: {
+            "description": "the `rev` of the telemetry `frames` message this list matches",
+            "schema": {"type": "integer"},
+        }
+    },
+}
+
+
+@router.get("/frames", response_model=list[FrameModel], responses={200: _LISTED, **SIM_RESPONSES})
+async def list_frames(runner: Runner, response: Response) -> list[FrameModel]:
     """The loaded scene's task frames: its own (on fixtures, where the seed put them), then the
     operators'. Commands name them in `frame` and `gains_frame`, beside `tool` and `base`."""
-    return [_model(f) for f in await on_sim_thread(runner, runner.frames)]
+    frames, rev = await on_sim_thread(runner, runner.frames_listed)
+    response.headers[FRAMES_REV_HEADER] = str(rev)
+    return [_model(f) for f in frames]
 
 
 @router.post(
