@@ -8,13 +8,15 @@ load and on each frame added (one every 10 s), and a scene reset every 10 min (a
 
     python -m bench.recording [--minutes 60] [--file session.mcap]
 
-Prints JSON: minutes, file_mb, messages, decompressed_mb, report_s, report_peak_rss_mb,
-replay_index_s, replay_peak_rss_mb.
+Prints JSON: minutes, file_mb, messages, decompressed_mb, trials, report_s (wall),
+report_cpu_s, report_peak_rss_mb, and the same for the replay's index (what `ptwl replay-serve`
+does before it serves), with replay_states.
 """
 
 import argparse
 import json
 import math
+import resource
 import subprocess
 import sys
 import tempfile
@@ -112,12 +114,13 @@ PEAK_KB_DEF = (
 )
 
 
-def measure(code: str, path: Path) -> tuple[float, float, str]:
-    """Wall seconds and peak RSS [MB] of a fresh interpreter running `code` on `path` (as
-    sys.argv[1]), and what it printed."""
+def measure(code: str, path: Path) -> tuple[float, float, float, str]:
+    """Wall seconds, CPU seconds (what a loaded machine cannot inflate) and peak RSS [MB] of a
+    fresh interpreter running `code` on `path` (as sys.argv[1]), and what it printed."""
     # VmHWM, not ru_maxrss: the latter keeps the forking parent's RSS across exec.
     report_peak = "print(PEAK_KB(), file=sys.stderr)"
     script = f"import atexit, sys\n{PEAK_KB_DEF}\natexit.register(lambda: exec({report_peak!r}))\n{code}"
+    cpu = resource.getrusage(resource.RUSAGE_CHILDREN)
     started = time.perf_counter()
     done = subprocess.run(
         [sys.executable, "-c", script, str(path)], capture_output=True, text=True, check=False
@@ -125,8 +128,10 @@ def measure(code: str, path: Path) -> tuple[float, float, str]:
     elapsed = time.perf_counter() - started
     if done.returncode != 0:
         raise RuntimeError(f"{code!r} failed: {done.stderr.strip()}")
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu_s = after.ru_utime + after.ru_stime - cpu.ru_utime - cpu.ru_stime
     peak_kb = int(done.stderr.strip().splitlines()[-1])
-    return elapsed, peak_kb / 1024, done.stdout
+    return elapsed, cpu_s, peak_kb / 1024, done.stdout
 
 
 REPORT = "from ptwl.cli import main\nrc = main(['report', '--json', sys.argv[1]])\nassert rc == 0"
@@ -150,8 +155,8 @@ def main() -> None:
         scan = Scan(path, ())  # counts, decodes nothing
         for _ in scan.located():
             pass
-        report_s, report_mb, text = measure(REPORT, path)
-        index_s, index_mb, states = measure(REPLAY_INDEX, path)
+        report_s, report_cpu_s, report_mb, text = measure(REPORT, path)
+        index_s, index_cpu_s, index_mb, states = measure(REPLAY_INDEX, path)
         print(
             json.dumps(
                 {
@@ -161,8 +166,10 @@ def main() -> None:
                     "decompressed_mb": round(scan.decompressed_bytes / 1e6, 1),
                     "trials": len(json.loads(text)),
                     "report_s": round(report_s, 2),
+                    "report_cpu_s": round(report_cpu_s, 2),
                     "report_peak_rss_mb": round(report_mb, 1),
                     "replay_index_s": round(index_s, 2),
+                    "replay_index_cpu_s": round(index_cpu_s, 2),
                     "replay_peak_rss_mb": round(index_mb, 1),
                     "replay_states": int(states),
                 },

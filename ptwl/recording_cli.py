@@ -8,6 +8,8 @@ from pathlib import Path
 
 from ptwl.launcher import free_port, start
 
+REPLAY_STARTUP_S = 120.0  # [s] the stand-in may take to index a file and answer
+
 
 def add_recording_parsers(sub: "argparse._SubParsersAction[argparse.ArgumentParser]") -> None:
     report = sub.add_parser("report", help="the paper's per-trial figures from a recording")
@@ -63,7 +65,15 @@ def cmd_replay(args: argparse.Namespace) -> int:
     flags = ["--speed", f"{args.speed}", *(["--paused"] if args.paused else [])]
     # Not echoed: the first "on http://" a launcher sees must be the console's.
     try:
-        robot = start("replay-serve", str(args.file), "--port", str(free_port()), *flags, health="/_replay")
+        robot = start(  # it indexes the file first: ~18 s for an hour of recording (README)
+            "replay-serve",
+            str(args.file),
+            "--port",
+            str(free_port()),
+            *flags,
+            health="/_replay",
+            startup_timeout=REPLAY_STARTUP_S,
+        )
     except RuntimeError as err:  # it said why (a file that is no recording) as it exited
         raise ValueError(str(err).rsplit("ptwl: ", 1)[-1].strip()) from None
     for line in robot.output:  # what it said besides its URL (a file cut short)
