@@ -173,24 +173,27 @@ class Scan:
         records = reader.records
         header = False
         while True:
-            offset = max(stream.tell(), 8)  # the first record follows the 8-byte magic
             try:
                 record = next(records)
             except StopIteration:
                 return
-            except (RecordLengthLimitExceeded, _Oversize) as err:
+            except RecordLengthLimitExceeded as err:  # raised right after the record's length
+                offset = stream.tell() - 9
                 if not self._past_the_end(offset):  # whole in the file, and over the bound
                     raise RecordingError(f"{self.path}: record at byte {offset}: {err}") from None
                 # A record the file does not hold: a chunk the writer was killed in the middle
                 # of (it declares 2^64 - 1 bytes until it is finished).
                 self.problem = f"the record at byte {offset} runs past the end of the file"
                 return
+            except _Oversize as err:
+                raise RecordingError(f"{self.path}: record at byte {reader.record_offset}: {err}") from None
             except (McapError, EOFError, ValueError, struct.error) as err:  # cut short
                 if not header:  # it never began as MCAP does
                     name = type(err).__name__
                     raise RecordingError(f"{self.path}: not an MCAP recording ({name})") from None
                 self.problem = f"{type(err).__name__}: {err}".rstrip(": ")
                 return
+            offset = reader.record_offset
             header = True  # the first record read is the header (the reader checked the magic)
             if isinstance(record, Metadata):
                 self.metadata[record.name] = dict(record.metadata)
@@ -307,7 +310,10 @@ class _Reader(StreamReader):
     """mcap's StreamReader, skipping the message-index records it would parse a field at a
     time: one per chunk, an entry per message, a fifth of a report's time, read by no one here."""
 
+    record_offset = 0  # where the record read last starts: a chunk is re-read from there
+
     def _read_record(self, opcode: int, length: int) -> Any:
+        self.record_offset = self._stream.count - 9  # its opcode and length are read
         if opcode == Opcode.MESSAGE_INDEX:
             self._stream.read(length)
             return None
