@@ -93,10 +93,11 @@ def start(
             if match and not url:
                 url.append(match.group(1))
                 found.set()
+        found.set()  # its output ended: it exited before a URL, and said why; no timeout to wait out
 
     threading.Thread(target=pump, daemon=True).start()
     try:
-        if not found.wait(startup_timeout):
+        if not found.wait(startup_timeout) or not url:
             raise RuntimeError(f"server did not start: {''.join(output)}")
         server = ServiceProcess(url[0], process, output)
         deadline = time.monotonic() + startup_timeout

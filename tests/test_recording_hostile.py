@@ -77,14 +77,15 @@ def _bomb() -> bytes:
     return b"".join(parts)
 
 
-def _run(*args: str) -> tuple[int, str, float]:
+def _run(*args: str, timeout_s: float = 120.0) -> tuple[int, str, float]:
     """`ptwl ARGS` in a fresh interpreter: its exit code, stderr, and peak RSS [MB]."""
     code = (  # VmHWM, not ru_maxrss: the latter keeps pytest's RSS (the forking parent) across exec
         "import sys\nfrom ptwl.cli import main\nrc = main(sys.argv[1:])\n"
         "peak = next(line.split()[1] for line in open('/proc/self/status') if line.startswith('VmHWM'))\n"
         "print('peak_kb', peak, file=sys.stderr)\nsys.exit(rc)"
     )
-    done = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=120)
+    command = [sys.executable, "-c", code, *args]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=timeout_s)
     lines = done.stderr.strip().splitlines()
     peak = [line for line in lines if line.startswith("peak_kb ")]
     said = "\n".join(line for line in lines if not line.startswith("peak_kb "))
@@ -164,6 +165,10 @@ def test_json_nested_200000_deep_is_named_not_a_recursion_error(tmp_path: Path, 
     else:
         assert report_json(path) == []  # no trial: nothing decoded, nothing wrong
         code, said, _ = _run("replay-serve", str(path))
+        assert code == 2 and said == f"ptwl: {path}: {expected}", said
+        # `ptwl replay` says what its stand-in said as it exited, not after the 120 s it would
+        # give a file to be indexed (the launcher waited for a URL that never came).
+        code, said, _ = _run("replay", str(path), "--port", "0", timeout_s=60.0)
         assert code == 2 and said == f"ptwl: {path}: {expected}", said
 
 
