@@ -6,13 +6,23 @@ the server process's CPU use; then the same with `--record` (MCAP), its file siz
 ratios recorded / plain (recording must stay within 2 %).
 
     python -m bench.server [--commands 200] [--seconds 5]
+
+`--load` measures telemetry under load instead (issue 26): 100 clients that read, for 60 s, with
+one core hogged by a busy process, straight from the robot and through the link; the state rate
+each client got (the goal: >= 45 Hz for every one), how many were closed, and that a client that
+never reads is still closed (1013) once it falls 256 events behind (commands are sent meanwhile).
+
+    python -m bench.server --load [--clients 100] [--seconds 60] [--hogs 1]
 """
 
 import argparse
 import asyncio
 import json
 import os
+import socket
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -20,7 +30,8 @@ from pathlib import Path
 import httpx
 import websockets
 
-from ptwl.launcher import ServiceProcess, running_server
+from guard.outbox import is_state
+from ptwl.launcher import ServiceProcess, running_proxy, running_server
 from recording.reader import read
 
 CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
@@ -117,11 +128,100 @@ def measure(args: argparse.Namespace, *server_args: str) -> dict:
     }
 
 
+async def _reader(url: str, seconds: float, window: list[float]) -> tuple[float, int | None]:
+    """(states a second sent in the window `window` [t0, t1] (Unix) and received, the close code
+    if the socket was closed on it). Counted by each state's `sent_at`, so states that waited in
+    buffers before the window do not count."""
+    count = 0
+    async with websockets.connect(url, ping_interval=None, max_size=None) as ws:
+        try:
+            async with asyncio.timeout(seconds + 4.0):  # one timer, not one per message
+                async for message in ws:
+                    if is_state(message):
+                        sent_at = float(str(message).rsplit('"sent_at": ', 1)[1].rstrip("}"))
+                        if window and window[0] <= sent_at <= window[1]:
+                            count += 1
+                        elif window and sent_at > window[1]:
+                            break
+        except TimeoutError:
+            return count / seconds, None
+        except websockets.ConnectionClosed:
+            pass
+        return count / seconds, ws.close_code
+
+
+async def _events(url: str, until: float) -> int:
+    """Send short RWEs until `until` (monotonic): 3 events each (queued, running, done)."""
+    sent = 0
+    async with httpx.AsyncClient(timeout=10.0) as client:
+        while time.monotonic() < until:
+            answer = await client.post(url + "/api/commands", json={"type": "rwe", "duration": 0.02})
+            sent += answer.status_code == 202
+            await asyncio.sleep(0.05)
+    return sent
+
+
+async def _load(url: str, clients: int, seconds: float) -> dict:
+    ws_url = url.replace("http://", "ws://") + "/api/telemetry"
+    window: list[float] = []
+    readers = [asyncio.create_task(_reader(ws_url, seconds, window)) for _ in range(clients)]
+    # A small receive buffer before connecting (a small TCP window): the kernel holds little for
+    # it, so the server's outbox, not the kernel, is what fills.
+    sock = socket.socket()
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    host, port = url.removeprefix("http://").split(":")
+    sock.connect((host, int(port)))
+    never_reads = await websockets.connect(ws_url, sock=sock, ping_interval=None, max_queue=1)
+    await asyncio.sleep(2.0)  # every reader connected and settled
+    window.extend([time.time(), time.time() + seconds])
+    commands = await _events(url, time.monotonic() + seconds)
+    results = await asyncio.gather(*readers)
+    code, deadline = None, time.monotonic() + 15.0
+    try:
+        while time.monotonic() < deadline:  # read what waited: the close comes behind it
+            await asyncio.wait_for(never_reads.recv(), 5.0)
+    except (websockets.ConnectionClosed, TimeoutError):
+        code = never_reads.close_code
+    await never_reads.close()
+    rates = sorted(rate for rate, _ in results)
+    return {
+        "clients": clients,
+        "hz_min": round(rates[0], 2),
+        "hz_p05": round(percentile(rates, 0.05), 2),
+        "hz_mean": round(statistics.mean(rates), 2),
+        "at_least_45_hz": sum(rate >= 45.0 for rate in rates),
+        "closed": sum(closed is not None for _, closed in results),
+        "commands_sent": commands,
+        "never_reading_client_close_code": code,
+    }
+
+
+def load(args: argparse.Namespace) -> dict:
+    hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(args.hogs)]
+    try:
+        with running_server("--scene", "free_space") as robot:
+            direct = asyncio.run(_load(robot.url, args.clients, args.seconds))
+            with running_proxy(robot.url) as link:
+                through_link = asyncio.run(_load(link.url, args.clients, args.seconds))
+    finally:
+        for hog in hogs:
+            hog.kill()
+    return {"cores": os.cpu_count(), "hogs": args.hogs, "direct": direct, "through_link": through_link}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--commands", type=int, default=200)
     parser.add_argument("--seconds", type=float, default=5.0)
+    parser.add_argument("--load", action="store_true", help="telemetry under load (see above)")
+    parser.add_argument("--clients", type=int, default=100)
+    parser.add_argument("--hogs", type=int, default=1)
     args = parser.parse_args()
+    if args.load:
+        if args.seconds == 5.0:
+            args.seconds = 60.0
+        print(json.dumps(load(args)))
+        return
     plain = measure(args)
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "bench.mcap"

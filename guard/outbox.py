@@ -34,6 +34,7 @@ class Close:
 
 
 Item = str | bytes | Close
+GONE = Close(1000, "the client went away")
 
 
 class Outbox:
@@ -44,6 +45,7 @@ class Outbox:
         self._backlog = backlog
         self._ready = asyncio.Event()
         self.too_slow = False
+        self.gone = False  # the client went away: nothing more to send
         self.replaced = 0  # states replaced before they were sent
 
     def __len__(self) -> int:
@@ -67,9 +69,17 @@ class Outbox:
         self._items.append(message)
         self._ready.set()
 
+    def client_gone(self) -> None:
+        """Wake the sender for good: its next `get` is a Close, without waiting."""
+        self.gone = True
+        self._ready.set()
+
     async def get(self) -> Item:
-        """The next message, waiting for one; a Close means close the socket, send nothing more."""
+        """The next message, waiting for one; a Close means close the socket, send nothing more
+        (if `gone`, the socket is closed already)."""
         while not self._items:
+            if self.gone:
+                return GONE
             self._ready.clear()
             await self._ready.wait()
         message = self._items.popleft()

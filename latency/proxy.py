@@ -258,6 +258,7 @@ class LinkProxy:
                 additional_headers={"Authorization": auth} if auth else None,
                 open_timeout=10.0,
                 max_size=None,
+                compression=None,  # the robot need not deflate what the link inflates at once
             )
         except websockets.InvalidStatus as err:
             await ws.send_denial_response(

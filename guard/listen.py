@@ -1,0 +1,24 @@
+"""The listening socket every server binds itself (so port 0 works and the port is known before
+uvicorn starts), with a bounded send buffer.
+
+SEND_BUFFER_BYTES is set on the listener, so every accepted connection inherits it (Linux) in
+place of autotuning up to 4 MiB: a telemetry client that stops reading then holds at most this in
+the kernel (doubled by Linux for its bookkeeping) and about 7 s of 50 Hz states, after which its
+outbox (guard/outbox.py) fills and the rule there applies. Without it, a stalled client could
+hide a minute of telemetry in the kernel before anything of ours noticed.
+"""
+
+import socket
+
+SEND_BUFFER_BYTES = 256 * 1024
+
+
+def bind(host: str, port: int) -> socket.socket:
+    family, kind, proto, _, address = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)[0]
+    sock = socket.socket(family, kind, proto)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SEND_BUFFER_BYTES)
+    sock.bind(address)
+    sock.listen(128)
+    sock.set_inheritable(True)
+    return sock
