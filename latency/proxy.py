@@ -28,6 +28,7 @@ import gc
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from typing import Any
+from urllib.parse import quote
 
 import aiohttp
 import websockets
@@ -35,7 +36,8 @@ from pydantic import ValidationError
 from starlette.applications import Starlette
 from starlette.requests import Request
 from starlette.responses import JSONResponse, Response
-from starlette.routing import Route, WebSocketRoute
+from starlette.routing import Route, WebSocketRoute, request_response, websocket_session
+from starlette.types import Receive, Scope, Send
 from starlette.websockets import WebSocket, WebSocketDisconnect
 from yarl import URL
 
@@ -137,19 +139,31 @@ class LinkProxy:
             ],
             lifespan=self.lifespan,
         )
+        # A path the catch-all's pattern cannot match (a decoded newline: `.` stops at it) is
+        # still the robot's to answer, not Starlette's text/plain 404.
+        forward, relay = request_response(self.forward_http), websocket_session(self.relay_websocket)
+
+        async def unmatched(scope: Scope, receive: Receive, send: Send) -> None:
+            await (relay if scope["type"] == "websocket" else forward)(scope, receive, send)
+
+        app.router.default = unmatched
         # Outermost first: who may ask (Host, Origin, token), how much (64 KiB), then strict JSON.
         app.add_middleware(StrictJsonBody)
         app.add_middleware(BodyLimitMiddleware, limit=BODY_LIMIT_BYTES)
         app.add_middleware(AccessGuard, policy=self.access)
         return app
 
-    def _upstream_target(self, path: str, query: str, scheme: str | None = None) -> URL | None:
-        """The upstream URL for a request path, or None if the path could name another host
-        (`//host/...` is a network-path reference: joined naively, it leaves the upstream)."""
+    def _upstream_target(self, scope: Scope, query: str, scheme: str | None = None) -> URL | None:
+        """The upstream URL for a request, or None if its path could name another host (`//host/...`
+        is a network-path reference: joined naively, it leaves the upstream). The path goes on as
+        the client encoded it: decoded and re-encoded, a %0A in it was lost (URL parsers drop
+        newlines), and the robot would answer for another name."""
+        path = scope.get("raw_path", b"").decode("latin-1") or quote(scope["path"])
         if not path.startswith("/") or path.startswith("//"):
             return None
         base = self.upstream_url if scheme is None else self.upstream_url.with_scheme(scheme)
-        return base.with_path(path).with_query(query) if query else base.with_path(path)
+        target = base.with_path(path, encoded=True)
+        return target.with_query(query) if query else target
 
     # -------------------------------------------------------------- control API
     async def profile(self, request: Request) -> Response:
@@ -191,7 +205,7 @@ class LinkProxy:
         self.driver.notify(direction)
 
     async def forward_http(self, request: Request) -> Response:
-        target = self._upstream_target(request.url.path, request.url.query)
+        target = self._upstream_target(request.scope, request.url.query)
         if target is None:
             return JSONResponse({"detail": f"no such path {request.url.path!r}"}, 404)
         body = await request.body()
@@ -247,7 +261,7 @@ class LinkProxy:
     # ---------------------------------------------------------------- WebSocket
     async def relay_websocket(self, ws: WebSocket) -> None:
         scheme = "wss" if self.upstream_url.scheme == "https" else "ws"
-        target = self._upstream_target(ws.url.path, ws.url.query, scheme)
+        target = self._upstream_target(ws.scope, ws.url.query, scheme)
         if target is None:
             await ws.send_denial_response(JSONResponse({"detail": f"no such path {ws.url.path!r}"}, 404))
             return
