@@ -1,22 +1,28 @@
 """One WebSocket client's messages waiting to be sent: the rule for every telemetry socket (the
 robot's and the link's), so a client that cannot keep up costs a stated amount of memory.
 
-- **States are replaced.** At most one state waits: a newer one takes its place (and its turn,
-  after any event that came between), so a reader that falls behind gets the latest state, not a
-  backlog of old ones, and is never cut for being slow at states alone.
+- **Old states are dropped.** A state that has waited more than `MAX_STATE_WAIT_S` (2 s) for a
+  client is dropped when a newer one comes. A reader with a hiccup loses nothing, and neither
+  does one that takes a burst at once (the link releasing what a hold blackout kept); one that
+  falls further behind gets recent states, not an ever-older backlog, and is never cut for
+  being slow at states alone.
 - **Events are never dropped silently.** Command events and frames changes wait in order; when
   more than `backlog` of them wait, the client is marked too slow and its socket is closed with
   1013 (try again later): it reconnects and re-reads what it missed (the console does, from
   GET /api/commands and /api/frames).
 
-So a client holds at most `backlog` events plus one state, whatever it does.
+So a client holds at most `backlog` events and the states of the last 2 s (100 at 50 Hz; the
+robot's rate is at most 500 Hz; a burst the link releases at once is bounded by its own buffer).
 """
 
 import asyncio
+import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 
 EVENT_BACKLOG = 256  # events a client may fall behind (minutes of commands) before it is closed
+MAX_STATE_WAIT_S = 2.0  # a state waiting longer for a client is dropped when a newer one comes
 CLOSE_TOO_SLOW = 1013  # "try again later"
 STATE_PREFIX = '{"type": "state"'  # how a state message begins (json.dumps, type first)
 
@@ -38,28 +44,31 @@ GONE = Close(1000, "the client went away")
 
 
 class Outbox:
-    def __init__(self, backlog: int = EVENT_BACKLOG) -> None:
+    def __init__(self, backlog: int = EVENT_BACKLOG, clock: Callable[[], float] = time.monotonic) -> None:
         self._items: deque[Item] = deque()
-        self._state_waiting = False
+        self._state_times: deque[float] = deque()  # [s] when each waiting state came, oldest first
         self._events = 0
         self._backlog = backlog
+        self._clock = clock
         self._ready = asyncio.Event()
         self.too_slow = False
         self.gone = False  # the client went away: nothing more to send
-        self.replaced = 0  # states replaced before they were sent
+        self.replaced = 0  # states dropped for newer ones before they were sent
 
     def __len__(self) -> int:
         return len(self._items)
 
     def put(self, message: Item) -> None:
-        """Queue `message` (never waits); a state replaces the one still waiting."""
+        """Queue `message` (never waits); a state drops those that waited over MAX_STATE_WAIT_S."""
         if self.too_slow:
             return
         if is_state(message):
-            if self._state_waiting:
-                self._items.remove(next(m for m in self._items if is_state(m)))
+            now = self._clock()
+            while self._state_times and now - self._state_times[0] > MAX_STATE_WAIT_S:
+                self._state_times.popleft()
+                self._items.remove(next(m for m in self._items if is_state(m)))  # the oldest
                 self.replaced += 1
-            self._state_waiting = True
+            self._state_times.append(now)
         else:
             self._events += 1
             if self._events > self._backlog:
@@ -70,21 +79,21 @@ class Outbox:
         self._ready.set()
 
     def client_gone(self) -> None:
-        """Wake the sender for good: its next `get` is a Close, without waiting."""
+        """Wake the sender for good: its next `get` is GONE, whatever still waits."""
         self.gone = True
         self._ready.set()
 
     async def get(self) -> Item:
         """The next message, waiting for one; a Close means close the socket, send nothing more
-        (if `gone`, the socket is closed already)."""
-        while not self._items:
-            if self.gone:
-                return GONE
+        (GONE: the socket is closed already)."""
+        while not self._items and not self.gone:
             self._ready.clear()
             await self._ready.wait()
+        if self.gone:
+            return GONE
         message = self._items.popleft()
         if is_state(message):
-            self._state_waiting = False
+            self._state_times.popleft()
         else:
             self._events -= 1
         return message

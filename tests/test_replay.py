@@ -233,9 +233,12 @@ def test_the_console_replays_a_recording_with_play_pause_and_seek(
 
 
 def robot_url(output: list[str]) -> str:
-    """The replay's robot stand-in, as `ptwl replay` announced it."""
-    line = next(line for line in output if "replaying" in line)
-    return line.split(" robot ")[1].split()[0]
+    """The replay's robot stand-in, as `ptwl replay` announced it (once its console is up: the
+    line may come just after the console first answers)."""
+    deadline = time.monotonic() + 10.0
+    while not (lines := [line for line in output if "replaying" in line]) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    return lines[0].split(" robot ")[1].split()[0]
 
 
 def test_the_stand_in_checks_host_and_origin_and_stays_on_loopback(

@@ -8,7 +8,7 @@ import time
 import pytest
 import websockets
 
-from guard.outbox import EVENT_BACKLOG, Close
+from guard.outbox import EVENT_BACKLOG, GONE, Close, Outbox
 from ptwl.launcher import ServiceProcess
 from server.telemetry import Broadcaster
 
@@ -88,33 +88,49 @@ async def _health(server: ServiceProcess) -> str:
         return (await client.get(server.url + "/api/health")).text
 
 
-def test_a_slow_reader_gets_the_latest_state_and_is_closed_only_past_the_event_backlog() -> None:
+class FakeClock:
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def test_a_slow_reader_gets_recent_states_and_is_closed_only_past_the_event_backlog() -> None:
     async def main() -> None:
+        clock = FakeClock()
+        slow, fast = Outbox(clock=clock), Outbox(clock=clock)
         broadcaster = Broadcaster()
-        slow, fast = broadcaster.subscribe(), broadcaster.subscribe()
+        broadcaster._subs = {slow, fast}  # outboxes on a fake clock
         for seq in range(1000):  # 20 s of states at 50 Hz, read by one client only
             broadcaster.publish(f'{{"type": "state", "seq": {seq}}}')
             await fast.get()
-        assert len(slow) == 1 and slow.replaced == 999 and not slow.too_slow
-        assert await slow.get() == '{"type": "state", "seq": 999}'  # the latest, not the oldest
-        # Events keep their order among states; a state's place moves after the events before it.
-        broadcaster.publish('{"type": "state", "seq": 1000}')
-        broadcaster.publish('{"type": "command", "id": 1}')
-        broadcaster.publish('{"type": "state", "seq": 1001}')
-        assert [await slow.get() for _ in range(2)] == [
-            '{"type": "command", "id": 1}',
-            '{"type": "state", "seq": 1001}',
-        ]
+            clock.now += 0.02
+        # Kept: the states of the last 2 s (those that waited over 2 s went as newer ones came).
+        assert len(slow) == 101 and slow.replaced == 899 and not slow.too_slow
+        waiting = [await slow.get() for _ in range(101)]
+        assert waiting == [f'{{"type": "state", "seq": {seq}}}' for seq in range(899, 1000)]  # in order
+        # A burst put at once (the link after a hold blackout) is kept whole, events in place.
+        for seq in range(500):
+            broadcaster.publish(f'{{"type": "state", "seq": {seq}}}')
+            if seq == 250:
+                broadcaster.publish('{"type": "command", "id": 1}')
+        got = [await slow.get() for _ in range(501)]
+        assert got[251] == '{"type": "command", "id": 1}' and got[-1] == '{"type": "state", "seq": 499}'
+        assert slow.replaced == 899  # nothing of the burst dropped
         for i in range(EVENT_BACKLOG + 1):
             broadcaster.publish(f'{{"type": "command", "id": {i}}}')
             if i < EVENT_BACKLOG:
                 assert not slow.too_slow
-            await fast.get()  # keeps up
-        assert slow.too_slow and not fast.too_slow and broadcaster.dropped_clients == 1
+            while len(fast):
+                await fast.get()  # keeps up
+        assert slow.too_slow and not fast.too_slow
         assert len(slow) == 1 and await slow.get() == Close(
             1013, f"client too slow: fell {EVENT_BACKLOG} events behind"
         )
         broadcaster.publish('{"type": "command", "id": -1}')
         assert len(slow) == 0  # nothing more is kept for it
+        slow.client_gone()
+        assert await slow.get() == GONE  # and a sender waiting on it wakes
 
     asyncio.run(main())

@@ -56,13 +56,7 @@ class _Where:
     """Where each message of some topics is, in log-time order (file order on ties)."""
 
     def __init__(self) -> None:
-        self._times, self._offsets, self._ordinals, self._order = (
-            array("q"),
-            array("q"),
-            array("l"),
-            array("q"),
-        )
-        self._topics = array("b")
+        self._new_staging()
         self.times_ns = np.zeros(0, np.int64)
         self.offsets = np.zeros(0, np.int64)
         self.ordinals = np.zeros(0, np.int32)
@@ -83,6 +77,10 @@ class _Where:
         self.offsets = np.asarray(self._offsets, np.int64)[by_time]
         self.ordinals = np.asarray(self._ordinals, np.int32)[by_time]
         self.kinds = np.asarray(self._topics, np.int8)[by_time]
+        self._new_staging()
+
+    def _new_staging(self) -> None:
+        """Empty growable arrays for `add` (compact: 33 B a message until `sort`)."""
         self._times, self._offsets, self._ordinals, self._order = (
             array("q"),
             array("q"),
