@@ -27,10 +27,6 @@ class Broadcaster:
     def clients(self) -> int:
         return len(self._subs)
 
-    @property
-    def dropped_clients(self) -> int:
-        return sum(sub.too_slow for sub in self._subs)
-
     def publish(self, text: str) -> None:
         for sub in self._subs:
             sub.put(text)

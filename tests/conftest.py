@@ -11,6 +11,19 @@ from server.client import RobotClient
 from web.browser import chromium_available, launch
 
 
+@pytest.fixture(scope="session", autouse=True)
+def own_state_home(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
+    """Servers the tests start keep their command-id record in a directory of the run's own, not
+    in the user's ~/.local/state/ptwl (children inherit the environment)."""
+    before = os.environ.get("XDG_STATE_HOME")
+    os.environ["XDG_STATE_HOME"] = str(tmp_path_factory.mktemp("state_home"))
+    yield
+    if before is None:
+        os.environ.pop("XDG_STATE_HOME", None)
+    else:
+        os.environ["XDG_STATE_HOME"] = before
+
+
 @pytest.fixture(scope="module")
 def server() -> Iterator[ServiceProcess]:
     with running_server("--scene", "free_space", "--fault-injection") as srv:

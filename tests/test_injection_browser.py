@@ -139,6 +139,10 @@ def test_no_page_can_be_framed_by_another_origin(browser: object, stack: Any, si
         assert "frame-ancestors 'none'" in headers["content-security-policy"], url
         assert headers["x-frame-options"] == "DENY", url
     assert "script-src 'self'" in httpx.get(console.url + "/").headers["content-security-policy"]
+    refused = httpx.get(console.url + "/", headers={"Host": "rebinding.example"})  # the front door's own
+    assert (
+        refused.status_code == 400 and "frame-ancestors 'none'" in refused.headers["content-security-policy"]
+    )
     # A page of another origin frames the console and clicks where Send would be.
     site.html = f'<!doctype html><iframe src="{console.url}/" width="1100" height="720"></iframe>'
     before = len(httpx.get(robot.url + "/api/commands", params={"limit": 1000}).json())

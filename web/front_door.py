@@ -94,7 +94,7 @@ def _refusal(status: int, detail: str) -> bytes:
         f"HTTP/1.1 {status} {REASONS.get(status, 'Refused')}\r\nContent-Type: application/json\r\n"
         f"Content-Length: {len(body)}\r\nConnection: close\r\n\r\n"
     )
-    return head.encode() + body
+    return _with_headers(head.encode(), page_headers(CONSOLE_CSP)) + body
 
 
 async def _pipe(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:

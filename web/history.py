@@ -7,12 +7,16 @@ Commands from other consoles or scripts appear from their telemetry events alone
 Ids are the robot's and never repeat, but a restarted robot has forgotten the commands it had
 queued or running: when the robot's `instance` changes those are shown `lost`, never as the
 result of a later command, and the history starts again from them.
+
+Bounded: at most MAX_VIEWS commands are kept (a script can send commands for as long as it likes);
+the oldest finished ones are then folded into the counts and forgotten, so the paper's counts
+still cover the whole session.
 """
 
 import threading
 import time
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 EXIT_COLORS = {
@@ -60,9 +64,24 @@ class CommandView:
         return EXIT_COLORS.get(self.status, PHASE_COLORS.get(self.status, "#495057"))
 
 
+MAX_VIEWS = 1000  # commands kept, as many as the robot's own history keeps
+
+
+@dataclass
+class _Folded:
+    """What the paper's counts need of the finished commands no longer kept."""
+
+    ptwl: Counter[str] = field(default_factory=Counter)
+    rwe: int = 0
+    dither: int = 0
+    peak_force: float = 0.0
+    peak_torque: float = 0.0
+
+
 class CommandHistory:
     def __init__(self) -> None:
         self._lock = threading.Lock()
+        self._folded = _Folded()
         self._views: list[CommandView] = []
         self._by_id: dict[int, CommandView] = {}
         self._early: dict[int, dict[str, Any]] = {}  # events that beat their 202 back
@@ -74,6 +93,7 @@ class CommandHistory:
             view = CommandView(self._next_local, behavior, "sent", target=target, sender=sender)
             self._next_local += 1
             self._views.append(view)
+            self._trim()
             return view
 
     def accepted(self, view: CommandView, command_id: int) -> None:
@@ -103,6 +123,7 @@ class CommandHistory:
                 view = CommandView(0, message["behavior"], "queued", id=command_id)
                 self._views.append(view)
                 self._by_id[command_id] = view
+                self._trim()
             was_done = view.phase == "done"
             _apply(view, message)
             return view, view.phase == "done" and not was_done
@@ -140,7 +161,24 @@ class CommandHistory:
         view = CommandView(0, record["type"], "queued", id=int(record["id"]))
         self._views.append(view)
         self._by_id[int(record["id"])] = view
+        self._trim()
         return view
+
+    def _trim(self) -> None:
+        """(under the lock) Past MAX_VIEWS, fold the oldest finished commands into the counts.
+        Early events wait only for a command still `sent`: at most as many as those."""
+        excess = len(self._views) - MAX_VIEWS
+        if excess <= 0:
+            return
+        old = [v for v in self._views if v.phase == "done"][:excess]
+        for view in old:
+            _fold(self._folded, view)
+            if view.id is not None:
+                self._by_id.pop(view.id, None)
+        gone = {id(v) for v in old}
+        self._views = [v for v in self._views if id(v) not in gone]
+        while len(self._early) > MAX_VIEWS:
+            self._early.pop(next(iter(self._early)))
 
     def live(self) -> list[CommandView]:
         """Commands this console shows as queued or running."""
@@ -175,18 +213,29 @@ class CommandHistory:
     def counts(self) -> dict[str, Any]:
         """PTWL by exit condition, RWE and Dither counts, peak force and torque (paper's tables)."""
         with self._lock:
-            done = [v for v in self._views if v.phase == "done" and v.exit != "refused"]
-            ptwl = Counter(v.exit for v in done if v.behavior == "ptwl")
-            forces = [v.peak_force for v in done if v.peak_force is not None]
-            torques = [v.peak_torque for v in done if v.peak_torque is not None]
+            total = replace(self._folded, ptwl=Counter(self._folded.ptwl))
+            for view in self._views:
+                _fold(total, view)
             return {
-                "ptwl": dict(ptwl),
-                "ptwl_total": sum(ptwl.values()),
-                "rwe": sum(1 for v in done if v.behavior == "rwe"),
-                "dither": sum(1 for v in done if v.behavior == "dither"),
-                "peak_force": max(forces, default=0.0),
-                "peak_torque": max(torques, default=0.0),
+                "ptwl": dict(total.ptwl),
+                "ptwl_total": sum(total.ptwl.values()),
+                "rwe": total.rwe,
+                "dither": total.dither,
+                "peak_force": total.peak_force,
+                "peak_torque": total.peak_torque,
             }
+
+
+def _fold(into: _Folded, view: "CommandView") -> None:
+    """Count a finished command (refused ones never ran: not counted)."""
+    if view.phase != "done" or view.exit == "refused":
+        return
+    if view.behavior == "ptwl":
+        into.ptwl[str(view.exit)] += 1
+    into.rwe += view.behavior == "rwe"
+    into.dither += view.behavior == "dither"
+    into.peak_force = max(into.peak_force, view.peak_force or 0.0)
+    into.peak_torque = max(into.peak_torque, view.peak_torque or 0.0)
 
 
 def _apply_record(view: CommandView, record: dict[str, Any]) -> None:
