@@ -37,6 +37,9 @@ MAX_RECORD_BYTES = MAX_CHUNK_BYTES + MAX_CHUNK_BYTES // 128  # [B] one record as
 # A 1-hour session decompresses to ~0.4 GiB; 4 GiB bounds how long a file keeps a reader busy.
 MAX_TOTAL_BYTES = 4 * 2**30  # [B] all chunks of one file, decompressed
 MAX_JSON_DEPTH = 64  # nesting of one JSON message; ours nest 5 deep (geometry)
+# One JSON message decoded can take ~20x its text in Python objects ("[[],[],...]"): ours are at
+# most ~0.1 MiB (a scene's geometry), so 4 MiB (<= ~90 MB decoded) leaves a margin of 40.
+MAX_JSON_BYTES = 4 * 2**20
 
 
 class RecordingError(ValueError):
@@ -357,7 +360,10 @@ _NOT_BRACKET = bytes(b for b in range(256) if b not in b"[]{}")
 
 def decode_json(data: bytes) -> Any:
     """json.loads, refusing nesting deeper than MAX_JSON_DEPTH before the parser recurses into
-    it (200,000 levels end in a RecursionError, or later in whoever walks the value)."""
+    it (200,000 levels end in a RecursionError, or later in whoever walks the value), and text
+    over MAX_JSON_BYTES."""
+    if len(data) > MAX_JSON_BYTES:
+        raise RecordingError(f"JSON message of {len(data)} B, over {MAX_JSON_BYTES} B")
     if data.count(b"[") + data.count(b"{") > MAX_JSON_DEPTH:
         brackets = _STRING.sub(b"", data).translate(None, _NOT_BRACKET)
         for _ in range(MAX_JSON_DEPTH):  # each pass takes off one level

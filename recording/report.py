@@ -20,6 +20,9 @@ from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
 from robot_sim.policies.run import paper_rows, report_metrics
 
 REPORTED = (topics.GEOMETRY.name, topics.STEPS.name, topics.TASK.name)  # all a report decodes
+# A trial's steps are held until it ends; our state machines take tens, a ground operator a few
+# hundred. A file with more is refused rather than held (each decoded step is ~2 KB).
+MAX_TRIAL_STEPS = 10_000
 
 
 @dataclass
@@ -92,6 +95,10 @@ def trials(messages: Iterable[Recorded] | Recording) -> list[RecordedTrial]:
             end_trial()
             found.append(RecordedTrial(value["scene"], message.log_time_ns))
         elif message.topic == topics.STEPS.name and found:
+            if len(found[-1].steps) >= MAX_TRIAL_STEPS:
+                raise RecordingError(
+                    f"the {found[-1].scene} trial at {found[-1].start_ns} ns has over {MAX_TRIAL_STEPS} steps"
+                )
             found[-1].steps.append(value)
         elif message.topic == topics.TASK.name and found:
             found[-1].task = value

@@ -16,9 +16,17 @@ from mcap.stream_reader import MAGIC_SIZE
 from mcap.writer import Writer
 
 from recording import topics
-from recording.reader import MAX_CHUNK_BYTES, MAX_JSON_DEPTH, RecordingError, Scan, decode_json, read
+from recording.reader import (
+    MAX_CHUNK_BYTES,
+    MAX_JSON_BYTES,
+    MAX_JSON_DEPTH,
+    RecordingError,
+    Scan,
+    decode_json,
+    read,
+)
 from recording.replay.timeline import Timeline
-from recording.report import report_json
+from recording.report import MAX_TRIAL_STEPS, report_json
 
 MAGIC = b"\x89MCAP0\r\n"
 assert len(MAGIC) == MAGIC_SIZE
@@ -257,3 +265,26 @@ def test_report_and_replay_name_messages_that_are_not_what_the_routes_read(tmp_p
         RecordingError, match=r"message 2 on /ptwl/telemetry: not a ptwl.Telemetry \(needs sim_time\)"
     ):
         Timeline(path)
+
+
+def test_a_json_message_over_its_bound_is_refused_before_it_is_decoded(tmp_path: Path) -> None:
+    """Flat, but 5 MiB of `[],` decodes to ~1.7 M lists (~110 MB): over MAX_JSON_BYTES it is named."""
+    big = b"[" + b"[]," * (5 * 2**20 // 3) + b"[]]"
+    path = _file(tmp_path / "big.mcap", _chunk(_records(*_json_channel(topics.GEOMETRY), _message(big))))
+    _refused(
+        path, f"message 1 on {topics.GEOMETRY.name}: JSON message of {len(big)} B, over {MAX_JSON_BYTES} B"
+    )
+
+
+def test_a_trial_with_more_steps_than_its_bound_is_refused(tmp_path: Path) -> None:
+    geometry = json.dumps({"scene": "surface", "bodies": {}}).encode()
+    step = json.dumps({"behavior": "rwe", "exit": "completed"}).encode()
+    steps = [_message(step, channel_id=2, ns=2 + i) for i in range(MAX_TRIAL_STEPS + 1)]
+    inner = _records(
+        *_json_channel(topics.GEOMETRY), *_json_channel(topics.STEPS, 2), _message(geometry), *steps
+    )
+    path = _file(tmp_path / "steps.mcap", _chunk(inner))
+    code, said, _ = _run("report", str(path))  # a report holds a trial's steps; replay never does
+    assert (
+        code == 2 and said == f"ptwl: {path}: the surface trial at 1 ns has over {MAX_TRIAL_STEPS} steps"
+    ), said

@@ -28,7 +28,7 @@ from recording import topics
 from recording.reader import Located, RecordingError, Scan
 
 MAX_INDEXED = 5_000_000  # messages on the replayed topics: 100 MB of index, ~14 h at 50 Hz
-MAX_COMMAND_BYTES = 16 * 2**20  # [B] command events' JSON, kept decoded (~40,000 events)
+MAX_COMMAND_BYTES = 4 * 2**20  # [B] command events' JSON, kept decoded (~10,000 events, ~50 MB)
 CACHED_CHUNKS = 2  # chunks kept decompressed: the one playing and the one before a seek
 
 REPLAYED = (topics.TELEMETRY, topics.COMMANDS, topics.FRAMES, topics.GEOMETRY, topics.TASK)
