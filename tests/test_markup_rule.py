@@ -22,6 +22,28 @@ def _sources() -> list[Path]:
     return files
 
 
+def _sets_content(node: ast.AST) -> bool:
+    """`x.content = ...`, `x.content += ...`, `x.content: T = ...` or `setattr(x, "content", ...)`."""
+    targets: list[ast.expr] = []
+    if isinstance(node, ast.Assign):
+        targets = node.targets
+    elif isinstance(node, ast.AugAssign | ast.AnnAssign):
+        targets = [node.target]
+    elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "setattr":
+        name = node.args[1] if len(node.args) > 1 else None
+        return not isinstance(name, ast.Constant) or name.value == "content"  # a computed name too
+    return any(isinstance(t, ast.Attribute) and t.attr == "content" for t in targets)
+
+
+def _markup_names(tree: ast.AST) -> set[str]:
+    """The names `Markup` goes by in a module (aliases too)."""
+    names = {"Markup"}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            names |= {a.asname or a.name for a in node.names if a.name == "Markup"}
+    return names
+
+
 def test_only_web_markup_touches_viser_html_sinks() -> None:
     offenders = []
     for path in _sources():
@@ -31,22 +53,46 @@ def test_only_web_markup_touches_viser_html_sinks() -> None:
             func = node.func if isinstance(node, ast.Call) else None
             if isinstance(func, ast.Attribute) and func.attr in SINKS:
                 offenders.append(f"{path.relative_to(ROOT)}:{node.lineno} calls {func.attr}")
-            targets = node.targets if isinstance(node, ast.Assign) else []
-            for target in targets:
-                if isinstance(target, ast.Attribute) and target.attr == "content":
-                    offenders.append(f"{path.relative_to(ROOT)}:{node.lineno} sets .content")
+            if _sets_content(node):
+                offenders.append(f"{path.relative_to(ROOT)}:{node.lineno} sets .content")
     assert offenders == []
+
+
+def _unsafe_markups(tree: ast.AST) -> list[int]:
+    """Lines where Markup (by any name, or markupsafe.Markup) is built from anything but one
+    string literal."""
+    names = _markup_names(tree)
+    lines = []
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.Call):
+            continue
+        func = node.func
+        called = (
+            func.id if isinstance(func, ast.Name) else func.attr if isinstance(func, ast.Attribute) else ""
+        )
+        literal = len(node.args) == 1 and isinstance(node.args[0], ast.Constant)
+        if called in names and (not (literal and isinstance(node.args[0].value, str)) or node.keywords):
+            lines.append(node.lineno)
+    return lines
 
 
 def test_markup_is_only_built_from_literal_templates() -> None:
-    offenders = []
-    for path in _sources():
-        for node in ast.walk(ast.parse(path.read_text(), str(path))):
-            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "Markup":
-                literal = len(node.args) == 1 and isinstance(node.args[0], ast.Constant)
-                if not (literal and isinstance(node.args[0].value, str)) or node.keywords:
-                    offenders.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    offenders = [
+        f"{path.relative_to(ROOT)}:{line}"
+        for path in _sources()
+        for line in _unsafe_markups(ast.parse(path.read_text(), str(path)))
+    ]
     assert offenders == []
+
+
+def test_the_rule_sees_the_ways_round_it() -> None:
+    """The checks above, on code that would slip past a narrower one."""
+    sneaky = ast.parse(
+        "h.content += x\nsetattr(h, 'content', x)\nh.content: str = x\nh.label = x\n"
+        "from markupsafe import Markup as M\nM(x)\nmarkupsafe.Markup(f'{x}')\nM('<b>{}</b>').format(x)\n"
+    )
+    assert sum(_sets_content(n) for n in ast.walk(sneaky)) == 3
+    assert _unsafe_markups(sneaky) == [6, 7]
 
 
 def test_a_plain_string_is_refused_at_the_sink() -> None:
