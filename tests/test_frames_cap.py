@@ -214,24 +214,24 @@ def test_nothing_lost_means_no_refetch() -> None:
     runner.add_frame("a", None)
     runner.add_frame("b", None)
     script += published[-2:]
-    script.append({"type": "state", "frames_rev": runner._state()["frames_rev"]})
+    state = {"type": "state", "frames_rev": runner._state()["frames_rev"]}
+    script += [state, state]  # the first state's rev is judged before the second is handled
     robot = _ScriptedRobot(runner, script)
     heard: list[list[dict[str, Any]]] = []
-    done = threading.Event()
-
-    def on_frames(frames: list[dict[str, Any]]) -> None:
-        heard.append(frames)
-        if len(heard) == 3:
-            done.set()
+    states = 0
+    second_state = threading.Event()
 
     def on_state(state: dict[str, Any], arrived: float) -> None:
-        done.wait(10.0)
+        nonlocal states
+        states += 1
+        if states == 2:
+            second_state.set()
 
-    feed = TelemetryFeed(robot, on_state, lambda c: None, lambda link: None, on_frames)  # type: ignore[arg-type]
+    feed = TelemetryFeed(robot, on_state, lambda c: None, lambda link: None, heard.append)  # type: ignore[arg-type]
     feed.start()
     try:
-        assert done.wait(10.0)
+        assert second_state.wait(10.0)
     finally:
         feed.close()
     assert [[f["name"] for f in frames] for frames in heard] == [[], ["a"], ["a", "b"]]
-    assert robot.frames_asked == 0
+    assert feed.frames_refetches == 0 and robot.frames_asked == 0

@@ -239,7 +239,7 @@ def test_link_memory_stays_flat_for_telemetry_clients_that_never_read() -> None:
             before = _rss_mb(link.process.pid)
             time.sleep(10.0)
             grown_mb = _rss_mb(link.process.pid) - before
-            # A reader on the same link still gets states at the robot's rate.
+            # A reader on the same link still gets every state, in order.
             with websockets.sync.client.connect(
                 link.url.replace("http://", "ws://") + "/api/telemetry"
             ) as ws:
@@ -248,7 +248,8 @@ def test_link_memory_stays_flat_for_telemetry_clients_that_never_read() -> None:
             for sock in stalled:
                 sock.close()
         assert grown_mb < 4.0, grown_mb
-        assert [s for s in seqs if s is not None] == sorted(s for s in seqs if s is not None)
+        states = [s for s in seqs if s is not None]
+        assert len(states) >= 45 and all(b - a == 1 for a, b in zip(states, states[1:], strict=False))
 
 
 def test_the_link_forwards_a_path_as_encoded(open_link: ServiceProcess) -> None:
