@@ -73,8 +73,9 @@ SPEC = TrialSpec("quick_connect", "onboard", 0.0, 0.0, 0.0, 0, think_s=0.0)
 
 
 def _crafted(source: Path, out: Path) -> int:
-    """`source` with every /commands message's sender, detail and steps replaced by markup, as an
-    attacker would edit a file; how many messages were edited."""
+    """`source` as an attacker would edit it: markup in every /commands message's sender, detail
+    and steps, and in each state's task predicate and unit; how many command messages were
+    edited."""
     edited = 0
     with source.open("rb") as f_in, out.open("wb") as f_out:
         reader = make_reader(f_in)
@@ -95,6 +96,10 @@ def _crafted(source: Path, out: Path) -> int:
             writer.add_metadata(record.name, record.metadata)
         for _, channel, message in reader.iter_messages(log_time_order=False):
             data = message.data
+            if channel.topic == "/ptwl/telemetry" and json.loads(data).get("task"):
+                state = json.loads(data)
+                state["task"]["predicate"], state["task"]["unit"] = PAYLOADS[1], PAYLOADS[2]
+                data = json.dumps(state).encode()
             if channel.topic == "/commands":
                 event = json.loads(data)
                 event["sender"] = PAYLOADS[0]
@@ -126,6 +131,8 @@ def test_markup_in_a_crafted_recording_shows_as_text_in_replay(browser: object, 
             line = page.locator("#ptwl-command").inner_text()
             assert PAYLOADS[0] in line and PAYLOADS[2] in line, line
             assert PAYLOADS[0].split(" ")[0] in page.locator("#ptwl-history").inner_text()
+            task = page.locator("#ptwl-task")
+            assert task.get_attribute("title") == PAYLOADS[1] and PAYLOADS[2] in task.inner_text()
             time.sleep(0.5)  # an injected handler would have fired by now
             _no_injected_markup(page)
         finally:
