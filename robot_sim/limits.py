@@ -39,6 +39,9 @@ MAX_DITHER_FREQUENCY_HZ = 10.0
 # read as "no limit" (a 1e308 N threshold passed validation before).
 MAX_FORCE_THRESHOLD_N = 500.0
 MAX_TORQUE_THRESHOLD_NM = 50.0
+# [s] how far a sender's clock may lead the robot's in `sent_at` (the server's --sent-at-skew
+# default): more would let a stamp keep a command fresh past its max_age.
+SENT_AT_SKEW_S = 5.0
 MAX_SEED = 2**32 - 1  # scene seeds: numpy takes any non-negative int; one range to document
 
 STIFFNESS_MAX = (20000.0, 20000.0, 20000.0, 1000.0, 1000.0, 1000.0)  # [N/m x3, N m/rad x3]

@@ -25,6 +25,7 @@ from pydantic_core import CoreSchema, core_schema
 from robot_sim import limits
 from robot_sim.errors import UnknownNameError
 from robot_sim.gains import Gains, GainsFrame
+from robot_sim.pose_math import direction_and_norm
 
 AxisName = Literal["x", "y", "z", "rx", "ry", "rz"]
 AXIS_NAMES: tuple[AxisName, ...] = ("x", "y", "z", "rx", "ry", "rz")
@@ -77,18 +78,13 @@ def _vector(limit: float, unit: str, *, direction: bool = False) -> WrapValidato
                 if isinstance(v, float) and not math.isfinite(v):
                     raise ValueError(f"component {i} must be a finite number, got {v}")
         vec: list[float] = handler(value)
-        # Over the largest component first: hypot of [1e308, 1e308, 0] is inf, and a direction
-        # divided by it was [0, 0, 0] (a dither that never moves).
-        largest = max((abs(v) for v in vec), default=0.0)
-        scaled = [v / largest for v in vec] if largest > 0.0 else vec
-        norm = largest * math.hypot(*scaled)
+        unit_vec, norm = direction_and_norm(vec)  # [1.7e308, 1.7e308, 0] has no float norm
         if norm > limit:
             raise ValueError(f"magnitude must be <= {limit:g} {unit}, got {norm:.4g}")
         if direction:
             if norm < 1e-9:
                 raise ValueError("must be a non-zero direction")
-            scaled_norm = math.hypot(*scaled)
-            return [v / scaled_norm for v in scaled]
+            return unit_vec
         return vec
 
     return WrapValidator(check)
@@ -210,12 +206,12 @@ class Expiring(StrictModel):
     in the link or in the queue is judged alike. `max_age` compares the robot's wall clock with
     the sender's `sent_at`: across machines their clocks must agree to well under `max_age`."""
 
-    # The robot refuses a sent_at more than its skew (5 s by default) ahead of its own clock
-    # (server/commands.py: the bound moves with the clock, so the schema cannot hold it).
+    # The robot refuses a sent_at more than its skew (limits.SENT_AT_SKEW_S by default) ahead of its
+    # own clock (server/commands.py: the bound moves with the clock, so the schema cannot hold it).
     sent_at: Annotated[float, _range(0.0, math.inf, "s", hi_open=True)] | None = Field(
         None,
         description="[s] Unix time when the sender sent it, by the sender's clock; at most the "
-        "robot's clock + 5 s (its --sent-at-skew)",
+        f"robot's clock + {limits.SENT_AT_SKEW_S:g} s (its --sent-at-skew)",
     )
     max_age: Annotated[float, _range(0.0, MAX_AGE_S, "s", lo_open=True)] | None = Field(
         None, description="[s] (0, 86400] after `sent_at`, which it needs; " + EXPIRY_DOC

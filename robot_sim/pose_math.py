@@ -1,5 +1,7 @@
 """Quaternion helpers on mujoco.mju_* (quaternions [w x y z], rotation vectors [rad])."""
 
+import math
+
 import mujoco
 import numpy as np
 
@@ -42,3 +44,16 @@ def rotvec_from_to(q_from: np.ndarray, q_to: np.ndarray) -> np.ndarray:
     out = np.zeros(3)
     mujoco.mju_quat2Vel(out, q_rel, 1.0)
     return out
+
+
+def direction_and_norm(values: "list[float] | tuple[float, ...]") -> tuple[list[float], float]:
+    """(values / |values|, |values|) for finite values of any size, without overflow or underflow:
+    divided by the largest component first (the squares of 1e200 overflow to inf and those of
+    1e-200 underflow to 0, so mju_normalize gave [0, ...] or silently a default). A zero vector
+    gives (zeros, 0.0): the caller says whether that is an error."""
+    largest = max((abs(v) for v in values), default=0.0)
+    if largest == 0.0:
+        return [0.0] * len(values), 0.0
+    scaled = [v / largest for v in values]
+    scaled_norm = math.hypot(*scaled)
+    return [v / scaled_norm for v in scaled], largest * scaled_norm

@@ -11,6 +11,7 @@ An operator may add at most MAX_OPERATOR_FRAMES to a scene (the scene's own, fro
 count: they are few and fixed by the config file).
 """
 
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import cache
@@ -25,7 +26,7 @@ from pydantic import Field, ValidationError, model_validator
 from robot_sim.errors import ConfigError, RobotSimError, UnknownNameError
 from robot_sim.gains import Gains
 from robot_sim.params import FRAME_FIELDS, StrictModel, Vec3
-from robot_sim.pose_math import rotation_matrix
+from robot_sim.pose_math import direction_and_norm, rotation_matrix
 
 BUILT_IN = ("tool", "base")
 # Operator frames a scene may hold at once. A task uses a handful (a peg's axis, a contact's
@@ -59,17 +60,14 @@ class TaskFrame:
 def unit_quaternion(quaternion: "Iterable[float]") -> tuple[float, float, float, float]:
     """`quaternion` (w x y z, any length) scaled to unit length; ValueError if it has no direction.
 
-    Divided by its largest component before the norm: the squares of 1e200 overflow and those of
-    1e-200 underflow, and mju_normalize4 then gave [0, 0, 0, 0] (a frame whose moves go nowhere)
-    or silently the identity."""
-    q = np.asarray(list(quaternion), dtype=float)
-    if q.shape != (4,) or not np.isfinite(q).all():
-        raise ValueError(f"quaternion must be 4 finite numbers, got {q.tolist()}")
-    largest = float(np.abs(q).max())
-    if largest == 0.0:
+    Normalized without overflow (pose_math.direction_and_norm): mju_normalize4 gave [0, 0, 0, 0]
+    for [1e200, 0, 0, 0] (a frame whose moves go nowhere) and the identity for 1e-200s."""
+    q = [float(v) for v in quaternion]
+    if len(q) != 4 or not all(math.isfinite(v) for v in q):
+        raise ValueError(f"quaternion must be 4 finite numbers, got {q}")
+    (w, x, y, z), norm = direction_and_norm(q)
+    if norm == 0.0:
         raise ValueError("quaternion must be non-zero (any length: it is normalized), got [0, 0, 0, 0]")
-    q = q / largest
-    w, x, y, z = (q / np.linalg.norm(q)).tolist()
     return (w, x, y, z)
 
 

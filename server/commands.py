@@ -35,9 +35,9 @@ from typing import Any
 from robot_sim.behaviors import BehaviorReport
 from robot_sim.behaviors.base import ExitCondition, Pose
 from robot_sim.executor import CommandParams
+from robot_sim.limits import SENT_AT_SKEW_S
 from robot_sim.policies.run import StepRecord
 from robot_sim.task_frames import frames_named
-from server.config import SENT_AT_SKEW_S
 from server.models import CommandStatus, MachineStepModel, PoseModel
 
 
@@ -135,6 +135,11 @@ def _write_atomically(path: Path, text: str) -> None:
         f.flush()
         os.fsync(f.fileno())
     os.replace(tmp, path)
+    directory = os.open(path.parent, os.O_RDONLY)  # the rename itself survives a power cut too
+    try:
+        os.fsync(directory)
+    finally:
+        os.close(directory)
 
 
 def _finite(values: Sequence[float]) -> list[float] | None:

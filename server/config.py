@@ -7,11 +7,11 @@ from pathlib import Path
 from guard.access import AccessConfigError, AccessPolicy, check_token_setting, is_loopback
 from guard.body_limit import BODY_LIMIT_BYTES
 from recording.paths import check_record_path
+from robot_sim.limits import SENT_AT_SKEW_S
 
 DEFAULT_PORT = 8000
 QUEUE_MAX = 64  # queued commands; beyond it POST /api/commands answers 429
 HISTORY_MAX = 1000  # finished commands kept for GET /api/commands
-SENT_AT_SKEW_S = 5.0  # [s] default: how far a sender's clock may lead the robot's (sent_at)
 MAX_SENT_AT_SKEW_S = 3600.0  # [s] more would let a stamp defeat max_age by an hour or more
 IDS_FILE = "command-ids.json"  # in the data dir: ids on record, so none repeats after a restart
 

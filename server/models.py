@@ -20,7 +20,7 @@ from robot_sim.params import (
     StateMachineParams,
 )
 from robot_sim.scenes import SCENES, get_scene
-from robot_sim.task_frames import unit_quaternion
+from robot_sim.task_frames import MAX_OPERATOR_FRAMES, unit_quaternion
 
 Command = Annotated[
     PtwlParams | RweParams | DitherParams | GripperParams | StateMachineParams, Field(discriminator="type")
@@ -54,8 +54,14 @@ class PoseModel(BaseModel):
 SENDER_HEADER = "x-ptwl-sender"
 # Who sent a command is shown to every operator: letters, digits, space and . _ - : @ / # ( ) + ,
 # only, so no markup character (< > & " ' `) can reach a page even before the console escapes it.
-SENDER_PATTERN = r"^[A-Za-z0-9 ._:@/#()+,-]{1,64}$"
-SENDER_DOC = "who sends it (1-64 of letters, digits, space and . _ - : @ / # ( ) + ,), kept in its record"
+# With letters and digits: no markup character (< > & " ' `); '-' last, so literal in the class.
+SENDER_SYMBOLS = " ._:@/#()+,-"
+SENDER_MAX_CHARS = 64
+SENDER_PATTERN = rf"^[A-Za-z0-9{SENDER_SYMBOLS}]{{1,{SENDER_MAX_CHARS}}}$"
+SENDER_DOC = (
+    f"who sends it (1-{SENDER_MAX_CHARS} of letters, digits, space and {' '.join(SENDER_SYMBOLS.strip())}), "
+    "kept in its record"
+)
 INSTANCE_DOC = "the server run that gave the id (changes on every restart)"
 
 
@@ -412,7 +418,7 @@ COMMAND_STATUS_RESPONSES: dict[int | str, dict[str, Any]] = {
 FRAME_CONFLICT_RESPONSES: dict[int | str, dict[str, Any]] = {
     409: _error(
         "a frame of that name exists, is built in or the scene's own, queued commands name it, "
-        "or the scene holds its most operator frames (64)"
+        f"or the scene holds its most operator frames ({MAX_OPERATOR_FRAMES})"
     ),
     **SIM_RESPONSES,
 }
