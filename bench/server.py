@@ -10,7 +10,8 @@ ratios recorded / plain (recording must stay within 2 %).
 `--load` measures telemetry under load instead (issue 26): 100 clients that read, for 60 s, with
 one core hogged by a busy process, straight from the robot and through the link; the state rate
 each client got (the goal: >= 45 Hz for every one), how many were closed, and that a client that
-never reads is still closed (1013) once it falls 256 events behind (commands are sent meanwhile).
+never reads is still cut: 1013 once it falls 256 events behind (commands are sent meanwhile), or
+1011 from the keepalive when its socket is so stalled that even the close cannot get out.
 
     python -m bench.server --load [--clients 100] [--seconds 60] [--hogs 1]
 """
