@@ -10,14 +10,7 @@ import pytest
 from ptwl.cli import main
 from robot_sim.sim import Simulation
 from server.pacing import BATCH_S, MAX_LAG_S, RealTimePacer
-
-
-class FakeClock:
-    def __init__(self) -> None:
-        self.now = 100.0
-
-    def __call__(self) -> float:
-        return self.now
+from tests.fake_clock import FakeClock
 
 
 def test_pacer_steps_only_when_the_wall_clock_is_ahead(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -33,6 +33,7 @@ from server.client import RobotClient
 from server.commands import ID_BLOCK, CommandBook, CommandIds, FutureSentAtError
 from server.errors import field_errors
 from server.models import ActiveGainsModel, FrameRequest, SceneRequest, TypedPose
+from tests.fake_clock import FakeClock
 
 Own = tuple[RobotClient, ServiceProcess, Path]
 
@@ -276,30 +277,22 @@ def test_a_dither_axis_of_1e308_is_a_direction_not_zero() -> None:
 # --------------------------------------------------------------------- defect 10: sent_at
 
 
-class FakeClock:
-    def __init__(self, now_s: float) -> None:
-        self.now_s = now_s
-
-    def __call__(self) -> float:
-        return self.now_s
-
-
 def test_a_sent_at_ahead_of_the_robot_by_more_than_the_skew_is_refused() -> None:
     clock = FakeClock(1_700_000_000.0)
     book = CommandBook(8, 16, wall_clock_s=clock)
     with pytest.raises(FutureSentAtError) as refused:
-        book.submit(RweParams(sent_at=clock.now_s + 3600.0, max_age=1.0))  # the reported attack
+        book.submit(RweParams(sent_at=clock.now + 3600.0, max_age=1.0))  # the reported attack
     message = str(refused.value)
     assert refused.value.field == "sent_at"
     assert "must be in [0, now + 5] s" in message and "got 1.7e+09" in message, message
     with pytest.raises(FutureSentAtError):
         book.submit(RweParams(sent_at=1e308))
     with pytest.raises(FutureSentAtError):
-        book.submit(RweParams(sent_at=clock.now_s + 5.001))
-    edge = book.submit(RweParams(sent_at=clock.now_s + 5.0, max_age=1.0))  # at the skew: accepted
+        book.submit(RweParams(sent_at=clock.now + 5.001))
+    edge = book.submit(RweParams(sent_at=clock.now + 5.0, max_age=1.0))  # at the skew: accepted
     assert book.queued_count() == 1 and book.get(edge.id) is not None
     # ...and it still expires by its age on the robot's clock: 1 s after the sender's stamp.
-    clock.now_s += 6.5
+    clock.now += 6.5
     book.start_next(lambda record: None, 0.0)
     status = book.get(edge.id)
     assert status is not None and status.exit == "expired"

@@ -20,6 +20,7 @@ from recording.replay.app import KEEPALIVE_S, create_replay_app
 from recording.replay.player import Player
 from recording.replay.timeline import Timeline
 from tests.console_page import port_mm
+from tests.fake_clock import FakeClock
 
 SPEC = TrialSpec("quick_connect", "onboard", 0.0, 0.0, 0.0, 0, think_s=0.0)
 
@@ -34,14 +35,6 @@ def recording_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="module")
 def timeline(recording_path: Path) -> Timeline:
     return Timeline(recording_path)
-
-
-class FakeClock:
-    def __init__(self) -> None:
-        self.now = 100.0
-
-    def __call__(self) -> float:
-        return self.now
 
 
 def test_the_playhead_moves_at_speed_from_where_it_was_set_and_stops_at_the_end() -> None:

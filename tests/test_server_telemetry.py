@@ -11,6 +11,7 @@ import websockets
 from guard.outbox import EVENT_BACKLOG, GONE, Close, Outbox
 from ptwl.launcher import ServiceProcess
 from server.telemetry import Broadcaster
+from tests.fake_clock import FakeClock
 
 WINDOW_S = 3.0
 pytestmark = pytest.mark.usefixtures("no_gc_pauses")  # rates are timed in this process
@@ -86,14 +87,6 @@ async def _health(server: ServiceProcess) -> str:
 
     async with httpx.AsyncClient() as client:
         return (await client.get(server.url + "/api/health")).text
-
-
-class FakeClock:
-    def __init__(self) -> None:
-        self.now = 0.0
-
-    def __call__(self) -> float:
-        return self.now
 
 
 def test_a_slow_reader_gets_recent_states_and_is_closed_only_past_the_event_backlog() -> None:
