@@ -63,6 +63,11 @@ class FutureSentAtError(ValueError):
 ID_BLOCK = 4096  # ids put on record per write of the state file
 
 
+class IdRecordError(ValueError):
+    """The id record could not be read or moved up (a full disk, a dir made read-only, a file
+    damaged under a running robot): no id can be given out that is sure never to repeat."""
+
+
 def _wall_clock_us() -> int:
     return time.time_ns() // 1000
 
@@ -95,6 +100,15 @@ class CommandIds:
         return taken
 
     def _reserve(self) -> None:
+        try:
+            self._reserve_block()
+        except OSError as err:
+            reason = err.strerror or str(err)
+            raise IdRecordError(f"command ids cannot be put on record in {self._file}: {reason}") from err
+        except ValueError as err:  # the record says something else (it names itself)
+            raise IdRecordError(f"command ids cannot be put on record: {err}") from err
+
+    def _reserve_block(self) -> None:
         if self._file is None:
             self._next = max(self._next, self._clock_us())
             self._on_record = self._next + ID_BLOCK

@@ -13,7 +13,7 @@ from fastapi.routing import APIRoute
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from robot_sim.errors import UnknownNameError
-from server.commands import FutureSentAtError, QueueFullError
+from server.commands import FutureSentAtError, IdRecordError, QueueFullError
 
 _TAGS = {"ptwl", "rwe", "dither"}
 
@@ -92,6 +92,10 @@ def install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(FutureSentAtError)
     async def _future_sent_at(_: Request, exc: FutureSentAtError) -> JSONResponse:
         return validation_response([{"loc": ("body", exc.field), "msg": str(exc), "type": "value_error"}])
+
+    @app.exception_handler(IdRecordError)
+    async def _id_record(_: Request, exc: IdRecordError) -> JSONResponse:
+        return JSONResponse({"detail": str(exc)}, status_code=503)  # nothing queued; the sim runs on
 
     @app.exception_handler(QueueFullError)
     async def _queue_full(_: Request, exc: QueueFullError) -> JSONResponse:

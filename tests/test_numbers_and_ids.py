@@ -419,3 +419,36 @@ def test_the_server_keeps_its_ids_on_record_in_its_data_dir(own: Own) -> None:
     record = json.loads((data_dir / "command-ids.json").read_text())
     assert accepted.id < record["next_id"] <= accepted.id + ID_BLOCK
     assert robot.state().instance == accepted.instance
+
+
+def test_an_id_record_that_cannot_be_moved_up_mid_run_refuses_the_command_with_a_named_503(
+    tmp_path: Path,
+) -> None:
+    """A full disk or a record replaced under a running robot: no id can be sure never to repeat,
+    so the command is refused (503 naming the record), nothing is queued, and the robot runs on."""
+    from fastapi import FastAPI
+    from fastapi.testclient import TestClient
+
+    from server.commands import IdRecordError
+    from server.errors import install_error_handlers
+
+    record = tmp_path / "command-ids.json"
+    ids = CommandIds(record, clock_us=lambda: 1)
+    for _ in range(ID_BLOCK):  # the block on record, given out
+        ids.take()
+    book = CommandBook(8, 16, ids=ids)
+    record.unlink()
+    record.mkdir()  # the next block cannot be read or written
+    with pytest.raises(IdRecordError, match=f"command ids cannot be put on record in {record}"):
+        book.submit(RweParams())
+    assert book.recent(16) == []  # nothing queued
+
+    app = FastAPI()
+    install_error_handlers(app)
+
+    @app.post("/c")
+    def submit() -> None:
+        book.submit(RweParams())
+
+    answer = TestClient(app).post("/c")
+    assert answer.status_code == 503 and str(record) in answer.json()["detail"]
