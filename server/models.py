@@ -316,6 +316,7 @@ QUEUE_FULL_RESPONSES: dict[int | str, dict[str, Any]] = {
         "description": "the command queue is full (64): wait, or POST /api/stop",
         "headers": {"Retry-After": {"description": "[s] when to try again", "schema": {"type": "integer"}}},
     },
+    503: _error("the command ids cannot be put on record (the robot's --data-dir): nothing was queued"),
 }
 # OpenAPI links: which request may follow an answer, and with what from it. They document the
 # API's flows, and schemathesis's stateful phase follows them (tests/test_openapi_fuzz.py): a
