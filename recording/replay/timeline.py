@@ -6,7 +6,8 @@ are binary searches. What the console reads live (GET /api/state, /api/geometry,
 
 Memory stays bounded however long the file: one pass (recording/reader.py, its bounds) checks
 every message the replay serves and keeps only where each is (log time, the chunk's byte offset
-and the message's place in it: 20 B a message, at most MAX_INDEXED messages). A message is
+and the message's place in it: 21 B an entry once sorted, 33 B while the pass builds it; states
+and frames have two entries, as a series and in the stream; at most MAX_INDEXED). A message is
 decoded again from its chunk when it is served; the last CACHED_CHUNKS chunks read stay in
 memory (each at most MAX_CHUNK_BYTES decompressed, ~1 MiB as our writer makes them), so playing
 reads each chunk once. Command events, which GET /api/commands folds from the start on every
@@ -27,7 +28,7 @@ import numpy as np
 from recording import topics
 from recording.reader import Located, RecordingError, Scan
 
-MAX_INDEXED = 5_000_000  # messages on the replayed topics: 100 MB of index, ~14 h at 50 Hz
+MAX_INDEXED = 5_000_000  # messages on the replayed topics (~14 h at 50 Hz): <= ~330 MB of index at its peak
 MAX_COMMAND_BYTES = 4 * 2**20  # [B] command events' JSON, kept decoded (~10,000 events, ~50 MB)
 CACHED_CHUNKS = 2  # chunks kept decompressed: the one playing and the one before a seek
 
