@@ -100,7 +100,7 @@ class RobotClient:
 
     def frames(self) -> list[FrameModel]:
         """The loaded scene's task frames (its own, then operators')."""
-        return [FrameModel(**f) for f in self._request("GET", "/api/frames")]
+        return self.frames_at_rev()[0]
 
     def frames_at_rev(self) -> tuple[list[FrameModel], int | None]:
         """The task frames and the `rev` of the telemetry `frames` message they match (None from a
