@@ -75,6 +75,8 @@ def test_each_command_records_who_sent_it(robot: RobotClient) -> None:
         "<img src=x onerror=import('//127.0.0.1:18090/p.js')>",
         'a"b',
         "a&b",
+        "<b>bold</b>",  # markup with no quote or ampersand
+        "a=1;b",
     ],
 )
 def test_a_bad_sender_is_refused_naming_the_header(
