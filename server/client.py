@@ -174,8 +174,10 @@ class RobotClient:
         """Queue a behavior and wait for its exit."""
         return self.wait(self.command(type, **params).id, timeout)
 
-    def stop(self) -> StopResult:
-        return StopResult(**self._request("POST", "/api/stop"))
+    def stop(self, timeout: float | None = None) -> StopResult:
+        """POST /api/stop; `timeout` [s] (default: the client's) bounds the wait for the answer."""
+        extra = {} if timeout is None else {"timeout": timeout}
+        return StopResult(**self._request("POST", "/api/stop", **extra))
 
     def reset_scene(self, name: str, seed: int | None = None) -> StopResult:
         return StopResult(**self._request("POST", "/api/scene", json={"name": name, "seed": seed}))

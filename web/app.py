@@ -23,7 +23,7 @@ from robot_sim.gains import Gains
 from robot_sim.params import PtwlParams
 from robot_sim.task_frames import TaskFrames, frames_from_dicts
 from server.client import RobotClient, RobotError
-from server.models import GeometryModel
+from server.models import GeometryModel, StopResult
 from web.board import Board
 from web.checks import Check, check_command
 from web.defaults import load_defaults
@@ -39,7 +39,9 @@ from web.preview import Previewer
 from web.robot_view import RobotView
 from web.seat import ControlSeat, operator_name
 from web.status_bar import BarInputs, Level, StatusBar
+from web.stop_sender import StopSender
 from web.targets import Pose
+from web.telemetry_health import TelemetryHealth
 from web.twin import GroundTwin, Prediction, Sent, point_from_state
 from web.twin_worker import TwinWorker
 
@@ -80,7 +82,7 @@ class ConsoleApp:
         self._state: dict[str, Any] | None = None
         self._arrived: float | None = None
         self._link_up = False
-        self._link_text = "connecting"
+        self.telemetry_health = TelemetryHealth()
         self._restart_note = ""
         self._commanded: CommandView | None = None
         self._count = 0
@@ -100,6 +102,13 @@ class ConsoleApp:
         self.twin_worker: TwinWorker | None = None
         self._prediction: Prediction | None = None
         self.previewer = Previewer()
+        self._recording = ""  # a replay's file name: the bar says it is a recording
+        self.stopper = StopSender(
+            lambda timeout_s: self.client.stop(timeout=timeout_s),
+            lambda: self.link_poller.rtt_s if self.link_poller is not None else 0.0,
+            lambda _: None,  # the bar draws `stopper.state` on its next tick
+            self._stop_confirmed,
+        )
         # The robot's task frames as last heard (GET /api/frames on a scene load, then its
         # `frames` telemetry messages): what the fields offer and the checks accept.
         self._frames_heard: list[dict[str, Any]] = []
@@ -133,6 +142,7 @@ class ConsoleApp:
         if replay is not None:
             self.playback = Playback(self.server.gui, self.robot_url, self.token, replay, self._replay_jumped)
             self.bar.stop.visible = False  # nothing moves on a recording
+            self._recording = str(replay["file"]).rsplit("/", 1)[-1]
         self.bar.stop.on_click(lambda event: self.stop(event.client))
         self.board.reset_scene.on_click(lambda _: self.reset_scene())
         self.seat.on_change(self._seat_changed)
@@ -326,24 +336,18 @@ class ConsoleApp:
                 desk.show_frames(frames)
 
     def stop(self, client: viser.ClientHandle | None = None) -> None:
-        """Anyone may stop. The bar shows it pending until the robot confirms, and a failure stays
-        on screen until a STOP gets through."""
-        assert self.bar is not None
-        who = operator_name(client.client_id) if client is not None else "console"
-        sent = time.strftime("%H:%M:%S")
-        self.bar.show_stop("pending", f"STOP sent by {who} at {sent}; waiting for the robot")
+        """Anyone may stop. The bar shows it pending until the robot confirms; a failure stays on
+        screen, in red at STOP, and STOP is sent again until one is confirmed (StopSender)."""
+        who = (operator_name(client.client_id) if client is not None else None) or "console"
         if self.twin is not None:
             self.twin.on_stop()
-        try:
-            result = self.client.stop()
-        except (RobotError, httpx.HTTPError) as err:
-            reason = str(err.detail) if isinstance(err, RobotError) else type(err).__name__
-            failed = f"STOP sent at {sent} NOT CONFIRMED ({reason}): the robot may still be moving"
-            self.bar.show_stop("failed", failed)
-            return
-        aborted = f"#{result.aborted}" if result.aborted is not None else "nothing running"
-        dropped = len(result.dropped)
-        self.bar.show_stop("confirmed", f"stopped (sent {sent}): aborted {aborted}, dropped {dropped} queued")
+        self.stopper.press(who)
+
+    def _stop_confirmed(self, result: StopResult) -> None:
+        """(the STOP thread) The robot says what STOP ended: every line says so at once."""
+        for view in self.history.stopped(result.aborted, result.dropped):
+            self._after_change(view)
+            self._announce_end(view)
 
     def reset_scene(self) -> None:
         assert self.board is not None
@@ -386,6 +390,7 @@ class ConsoleApp:
             previous = self._state
             self._state = state
             self._arrived = arrived
+        self.telemetry_health.on_state(state["seq"], float(state["sent_at"]), arrived)
         if self.twin is not None:
             self.twin.on_state(state, arrived)
         self._check_instance(state["instance"])
@@ -463,7 +468,8 @@ class ConsoleApp:
 
     def _on_link(self, text: str) -> None:
         up = text == "connected"
-        was_up, self._link_up, self._link_text = self._link_up, up, text
+        was_up, self._link_up = self._link_up, up
+        self.telemetry_health.on_transport(up, text)
         if up and not was_up:
             self._reconcile_soon()  # whatever happened while we were away, the robot's records say
 
@@ -528,13 +534,16 @@ class ConsoleApp:
             state,
             arrived,
             self._link_up,
-            self._link_text,
+            self.telemetry_health.line(rtt, time.time()),
             rtt,
             command,
             self._restart_note,
-            tuple(prediction.port[0].tolist()) if prediction is not None else None,
-            self.twin.error_summary() if self.twin is not None else None,
-            self._twin_note(),
+            stop=self.stopper.state,
+            holder=operator_name(self.seat.holder) or "",
+            predicted_port=tuple(prediction.port[0].tolist()) if prediction is not None else None,
+            prediction_error=self.twin.error_summary() if self.twin is not None else None,
+            twin_note=self._twin_note(),
+            recording=self._recording,
         )
 
     def _twin_note(self) -> str:
@@ -552,7 +561,9 @@ class ConsoleApp:
 
     def _on_level(self, level: Level) -> None:
         if self.view is not None:
-            self.view.set_stale(level == "stale", "STALE: link down" if not self._link_up else "STALE")
+            silent_s = self.telemetry_health.silent_s(time.time())
+            said = "link down" if not self._link_up else f"no telemetry for {silent_s or 0.0:.0f} s"
+            self.view.set_stale(level == "stale", f"STALE: {said}")
 
     def _show_command(self, view: CommandView | None) -> None:
         if self.board is None:
@@ -581,7 +592,15 @@ class ConsoleApp:
 
     def close(self) -> None:
         self._closed = True
-        for part in (self.handshake, self.bar, self.feed, self.link_poller, self.playback, self.twin_worker):
+        for part in (
+            self.handshake,
+            self.bar,
+            self.feed,
+            self.link_poller,
+            self.playback,
+            self.twin_worker,
+            self.stopper,
+        ):
             if part is not None:
                 part.close()
         # viser first, while the front door still carries its close handshake to the browsers:

@@ -110,6 +110,20 @@ class CommandHistory:
         with self._lock:
             view.phase, view.exit, view.detail = "done", "refused", detail
 
+    def stopped(self, aborted: int | None, dropped: list[int]) -> list[CommandView]:
+        """A STOP the robot confirmed ended these commands `aborted`: shown at once, so no line
+        keeps saying "running" while the end events are still on their way down (or lost).
+        Returns the views that ended here."""
+        ended = []
+        with self._lock:
+            for command_id in [*([] if aborted is None else [aborted]), *dropped]:
+                view = self._by_id.get(command_id)
+                if view is not None and view.phase != "done":
+                    view.phase, view.exit = "done", "aborted"
+                    view.detail = view.detail or "ended by a STOP the robot confirmed"
+                    ended.append(view)
+        return ended
+
     def event(self, message: dict[str, Any]) -> tuple[CommandView | None, bool]:
         """Apply a telemetry command event; (the view, whether it just ended)."""
         command_id = int(message["id"])

@@ -9,19 +9,21 @@ frozen "1.50 s old - connected".
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Literal
 
 import viser
 
 from web.markup import Markup, add_html, show
+from web.stop_sender import StopState
+from web.telemetry_health import LinkLine
 from web.twin import describe_error
 from web.worker import Worker
 
 TICK_S = 0.08  # the bar's refresh period: 12.5 updates/s whether or not telemetry arrives
 LATE_AFTER_RTT_S = 1.0  # amber: state older than the round trip plus this
 STALE_AFTER_RTT_S = 5.0  # red: older than the round trip plus this, or the link is down
-BAR_WIDTH_PX, BAR_HEIGHT_PX = 500, 235
+BAR_WIDTH_PX = 500
 PAGE_DEAD_AFTER_S = 2.5  # no bar update for this long: the console or the page's socket is gone
 # A page cannot tick when the console that feeds it is dead, so the page itself keeps time: every
 # update re-creates this banner, restarting its hidden CSS countdown; if updates stop, it appears.
@@ -51,23 +53,24 @@ class BarInputs:
 
     state: dict[str, Any] | None  # the latest telemetry state
     arrived: float | None  # [s] Unix time it arrived
-    link_up: bool
-    link_text: str  # "connected" or why not, in plain words
+    link_up: bool  # the transport is connected (telemetry may still be silent: `link`)
+    link: LinkLine  # what the telemetry stream shows of the link
     rtt_s: float  # the link's configured round trip (0 without a link)
     command: str  # the running or latest command, one line
     note: str  # e.g. "robot restarted at 12:00:01"
+    stop: StopState = field(default_factory=StopState)
+    holder: str = ""  # who has control ("" nobody)
     predicted_port: tuple[float, float, float] | None = None  # [m] the ground twin's, if it runs
     prediction_error: tuple[float, float] | None = None  # [m] its last and 5 s max error
     twin_note: str = ""  # why there is no prediction (the twin idles on a short link)
-
-
-@dataclass(frozen=True)
-class StopState:
-    phase: Literal["idle", "pending", "confirmed", "failed"] = "idle"
-    text: str = ""
+    recording: str = ""  # a replay: what is played (then nothing here reaches a robot)
 
 
 class StatusBar(Worker):
+    """One window, drawn from one `BarInputs` per tick. STOP is its last row, and the window is
+    anchored at the bottom with the height of its content: STOP stays where it is however many
+    lines the text above wraps into, and nothing is cut off."""
+
     def __init__(
         self,
         gui: viser.GuiApi,
@@ -77,29 +80,30 @@ class StatusBar(Worker):
         self._inputs = inputs
         self._on_level = on_level
         self.panel = gui.add_panel()
+        first = inputs()
         with self.panel.add_tab("Robot status"):
-            self.html = add_html(gui, _render(inputs(), *_judge(inputs(), time.time())))
+            self.html = add_html(gui, _render(first, *_judge(first, time.time())))
+            self.stop_html = add_html(gui, _stop_html(first.stop))
             self.stop = gui.add_button(
                 "STOP", color="red", hint="abort the running command, drop the queue, hold (anyone may stop)"
             )
-            self.stop_html = add_html(gui, _stop_html(StopState()))
         # Over the 3D view's bottom right, beside the docked control panel (notifications stack
         # top left, the arm stands mid-view): it never scrolls away, and no dropdown of the
-        # control panel can cover STOP.
+        # control panel can cover STOP. No height: the window grows upward with its content.
         gui.main_panel.dock_right()
-        self.panel.float(x=-12, y=-12, width=BAR_WIDTH_PX, height=BAR_HEIGHT_PX)
+        self.panel.float(x=-12, y=-12, width=BAR_WIDTH_PX)
         super().__init__("ptwl-status-bar", join_timeout_s=2.0)
-
-    def show_stop(self, phase: Literal["idle", "pending", "confirmed", "failed"], text: str) -> None:
-        """STOP's own state: pending until the robot confirms; a failure stays until a STOP works."""
-        show(self.stop_html, _stop_html(StopState(phase, text)))
 
     def _run(self) -> None:
         shown: Level | None = None
+        stop_shown: StopState | None = None
         while not self._closed.wait(TICK_S):
             inputs = self._inputs()
             age, level = _judge(inputs, time.time())
             show(self.html, _render(inputs, age, level))
+            if inputs.stop != stop_shown:
+                stop_shown = inputs.stop
+                show(self.stop_html, _stop_html(inputs.stop))
             if level != shown:
                 shown = level
                 self._on_level(level)
@@ -113,17 +117,29 @@ def _render(inputs: BarInputs, age: float | None, level: Level) -> Markup:
         robot = Markup("no robot state yet")
     else:
         x, y, z = (1000.0 * v for v in state["port"]["position"])
+        force_n = math.hypot(*state["wrench"][0:3])
         robot = Markup(
-            "robot state #{} is <b>{:.2f} s old</b> · port ({:.1f}, {:.1f}, {:.1f}) mm · scene <b>{}</b>"
-        ).format(seq, age, x, y, z, state["scene"])
+            "robot state #{} is <b>{:.2f} s old</b> · port ({:.1f}, {:.1f}, {:.1f}) mm · "
+            "<b>|f| {:.1f} N</b> · scene <b>{}</b>"
+        ).format(seq, age, x, y, z, force_n, state["scene"])
     stale = Markup(" · <b>STALE</b>: the robot may have moved since") if level == "stale" else ""
+    if inputs.recording:
+        link = Markup(
+            '<div id="ptwl-link" data-level="fresh" style="color:#7048e8"><b>REPLAY</b> of {}: '
+            "what was recorded, nothing here reaches a robot</div>"
+        ).format(inputs.recording)
+    else:
+        link = Markup('<div id="ptwl-link" data-level="{}" style="color:{}">{}{}</div>').format(
+            inputs.link.level, LEVEL_COLORS[inputs.link.level], inputs.link.text, inputs.note
+        )
     return Markup(
         '<div id="ptwl-bar" style="border-left:8px solid {color};padding:2px 8px;font-size:0.85em">'
         "{dead}"
         '<div id="ptwl-telemetry" data-seq="{seq}" data-arrived="{arrived}" data-age="{age}" '
         'data-level="{level}" data-link="{link_up}" data-rtt="{rtt}">{robot}{stale}</div>'
-        '<div style="color:{color}">link round trip {rtt:g} s · {link}{note}</div>'
-        '<div id="ptwl-running">{command}</div>{prediction}{task}</div>'
+        "{link}"
+        '<div id="ptwl-running">{command} · <span id="ptwl-holder">control: {holder}</span></div>'
+        "{prediction}{task}</div>"
     ).format(
         color=color,
         dead=DEAD_MAN_HTML,
@@ -135,9 +151,9 @@ def _render(inputs: BarInputs, age: float | None, level: Level) -> Markup:
         rtt=inputs.rtt_s,
         robot=robot,
         stale=stale,
-        link=inputs.link_text,
-        note=inputs.note,
+        link=link,
         command=inputs.command,
+        holder=inputs.holder or "nobody",
         prediction=_prediction_html(inputs.predicted_port, inputs.prediction_error, inputs.twin_note),
         task=_task_html(state.get("task") if state else None),
     )
@@ -217,6 +233,6 @@ def _stop_html(stop: StopState) -> Markup:
         "confirmed": "color:#2f9e44;font-weight:600",
         "failed": "color:white;background:#e03131;font-weight:700",
     }
-    return Markup('<div id="ptwl-stop" data-phase="{}" style="padding:2px 6px;{}">{}</div>').format(
-        stop.phase, styles[stop.phase], stop.text
-    )
+    return Markup(
+        '<div id="ptwl-stop" data-phase="{}" data-attempts="{}" style="padding:2px 6px;{}">{}</div>'
+    ).format(stop.phase, stop.attempts, styles[stop.phase], stop.text)

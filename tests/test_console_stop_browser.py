@@ -1,0 +1,99 @@
+"""A STOP the link lost, in view at both screen sizes (issue 27.1), in a real browser.
+
+On main, with a 10 s drop blackout, "STOP ... NOT CONFIRMED" was drawn below the bottom edge of a
+fixed 235 px status window, STOP was never sent again, the STOP button moved between y = 697, 716
+and 736 px as lines wrapped, and the link line kept saying "connected" while 448 messages were lost.
+"""
+
+import time
+
+import httpx
+import pytest
+
+from ptwl.launcher import ServiceProcess
+from tests.console_page import open_console
+
+pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
+BLACKOUT_S = 5.0
+ONE_WAY_S = 0.5
+
+# True if every corner of the element is drawn on screen: the topmost element there is the element
+# itself or inside it (not clipped by its window, not under anything, in the viewport). Inset 8 px
+# from the sides: the floating window's transparent resize strips lie over its edges.
+IN_VIEW = """(selector) => {
+  const el = document.querySelector(selector);
+  const r = el.getBoundingClientRect();
+  if (r.width === 0 || r.height === 0) return false;
+  const points = [[r.left + 8, r.top + 2], [r.right - 8, r.top + 2],
+                  [r.left + 8, r.bottom - 2], [r.right - 8, r.bottom - 2]];
+  return points.every(([x, y]) => {
+    const hit = document.elementFromPoint(x, y);
+    return hit !== null && (hit === el || el.contains(hit));
+  });
+}"""
+
+
+def set_link(link: ServiceProcess, **profile: object) -> None:
+    body = {"uplink": 0.0, "downlink": 0.0, "blackouts": [], **profile}
+    httpx.put(link.url + "/_link/profile", json=body).raise_for_status()
+
+
+def stop_top(page) -> float:  # type: ignore[no-untyped-def]
+    box = page.get_by_role("button", name="STOP").bounding_box()
+    assert box is not None
+    return float(box["y"])
+
+
+def stop_phase(page) -> str:  # type: ignore[no-untyped-def]
+    return page.locator("#ptwl-stop").get_attribute("data-phase") or ""
+
+
+@pytest.mark.parametrize("viewport", [(1366, 768), (1920, 1080)])
+def test_a_stop_lost_in_a_blackout_is_in_view_in_red_and_retried_until_confirmed(
+    browser, stack, viewport: tuple[int, int]
+) -> None:  # type: ignore[no-untyped-def]
+    robot, link, console = stack
+    set_link(link, uplink=ONE_WAY_S, downlink=ONE_WAY_S)
+    httpx.post(robot.url + "/api/stop").raise_for_status()
+    page = open_console(browser, console.url, control=False, viewport=viewport)  # anyone may stop
+    time.sleep(1.5)  # the first states over the link
+    y_before = stop_top(page)
+    set_link(
+        link,
+        uplink=ONE_WAY_S,
+        downlink=ONE_WAY_S,
+        blackouts=[{"start": 0.0, "duration": BLACKOUT_S, "mode": "drop"}],
+    )
+    page.get_by_role("button", name="STOP").click()
+    page.wait_for_function("document.querySelector('#ptwl-stop')?.dataset.phase === 'failed'", timeout=5_000)
+    # Retried while the blackout lasts, each failure said and counted ...
+    page.wait_for_function("Number(document.querySelector('#ptwl-stop')?.dataset.attempts) >= 2", timeout=5_000)
+    text = page.locator("#ptwl-stop").inner_text()
+    assert "NOT CONFIRMED (link dropped the request (blackout))" in text
+    assert "the robot may still be moving" in text
+    # ... drawn whole, on screen, in red, with STOP where it was.
+    assert page.evaluate(IN_VIEW, "#ptwl-stop"), text
+    color = page.locator("#ptwl-stop").evaluate("el => getComputedStyle(el).backgroundColor")
+    assert color == "rgb(224, 49, 49)"
+    assert stop_top(page) == pytest.approx(y_before, abs=1.0)
+    assert page.evaluate(IN_VIEW, "#ptwl-link")
+    # The link line says what the stream shows, not what the transport says.
+    page.wait_for_function(
+        "document.querySelector('#ptwl-link')?.innerText.includes('no telemetry for')", timeout=5_000
+    )
+    assert page.locator("#ptwl-link").get_attribute("data-level") == "stale"
+    # After the blackout a retry gets through and the robot confirms it.
+    page.wait_for_function(
+        "document.querySelector('#ptwl-stop')?.dataset.phase === 'confirmed'", timeout=(BLACKOUT_S + 8) * 1000
+    )
+    attempts = int(page.locator("#ptwl-stop").get_attribute("data-attempts") or "0")
+    confirmed = page.locator("#ptwl-stop").inner_text()
+    assert page.evaluate(IN_VIEW, "#ptwl-stop")
+    assert stop_top(page) == pytest.approx(y_before, abs=1.0)
+    page.wait_for_function(
+        "document.querySelector('#ptwl-link')?.innerText.includes('messages lost in a gap')", timeout=5_000
+    )
+    page.close()
+    set_link(link)
+    assert attempts >= 3  # about one a second over the 5 s blackout
+    assert f"on attempt {attempts})" in confirmed and "dropped 0 queued" in confirmed
