@@ -73,7 +73,8 @@ def test_a_stop_lost_in_a_blackout_is_in_view_in_red_and_retried_until_confirmed
     assert "the robot may still be moving" in text
     # ... drawn whole, on screen, in red, with STOP where it was.
     assert page.evaluate(IN_VIEW, "#ptwl-stop"), text
-    color = page.locator("#ptwl-stop").evaluate("el => getComputedStyle(el).backgroundColor")
+    # (One read of the element as drawn: it is redrawn with each attempt's count.)
+    color = page.evaluate("getComputedStyle(document.querySelector('#ptwl-stop')).backgroundColor")
     assert color == "rgb(224, 49, 49)"
     assert stop_top(page) == pytest.approx(y_before, abs=1.0)
     assert page.evaluate(IN_VIEW, "#ptwl-link")
