@@ -39,7 +39,8 @@ def restart_cost_s(rtt_s: float) -> float:
     twin.on_state(state, 0.0)
     twin.advance(0.0)  # builds the twin's model
     t0 = time.perf_counter()
-    twin.on_stop()  # forces a restart
+    twin.on_stop(time.time())  # forces a restart
+    twin.on_stop_confirmed(None)
     twin.advance(rtt_s / 2.0)
     return time.perf_counter() - t0
 

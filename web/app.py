@@ -19,6 +19,7 @@ import numpy as np
 import viser
 
 from robot_sim.behaviors import BehaviorParams
+from robot_sim.errors import UnknownNameError
 from robot_sim.gains import Gains
 from robot_sim.params import PtwlParams
 from robot_sim.task_frames import TaskFrames, frames_from_dicts
@@ -40,9 +41,10 @@ from web.robot_view import RobotView
 from web.seat import ControlSeat, operator_name
 from web.status_bar import BarInputs, Level, StatusBar
 from web.stop_sender import StopSender
-from web.targets import Pose
+from web.targets import Pose, ptwl_target
 from web.telemetry_health import TelemetryHealth
 from web.twin import GroundTwin, Prediction, Sent, point_from_state
+from web.twin_trust import twin_readout
 from web.twin_worker import TwinWorker
 
 NotificationColor = Literal["gray", "red", "green", "orange", "yellow", "blue"]
@@ -136,7 +138,7 @@ class ConsoleApp:
         self._tasks = {t.name: t.summary for t in local.tasks}
         self._stiffness_presets = presets
         self.view = RobotView(self.server, self.defaults.wrench_arrow_m_per_n)
-        self.bar = StatusBar(self.server.gui, self._bar_inputs, self._on_level)
+        self.bar = StatusBar(self.server.gui, self._bar_inputs, self._on_level, self._on_tick)
         scene_names = [s.name for s in local.scenes]
         self.board = Board(self.server.gui, scene_names, scene_names[0], self.defaults.plot_s)
         if replay is not None:
@@ -274,7 +276,7 @@ class ConsoleApp:
             )
             return
         sender = f"{desk.name} at console {self._host}:{self._front_port}"
-        target = desk.contemplated_target() if behavior == "ptwl" else None
+        target = self._target_of(params) if behavior == "ptwl" else None  # Send step's: the step's
         view = self.history.sent(behavior, target, sender)
         if behavior == "ptwl":
             self._commanded = view  # shown at once, as predicted: intent does not wait for the link
@@ -286,6 +288,23 @@ class ConsoleApp:
             sent_at = stamped["sent_at"]
             self.twin.on_sent(Sent(checked, sent_at, lambda: view.phase in ("sent", "queued")))
         self._submit(view, behavior, stamped, sender)
+
+    def _target_of(self, params: dict[str, Any]) -> Pose | None:
+        """Where a PTWL as sent goes from the port shown (None without a port, or in a frame not
+        known yet): the commanded marker's place, from what is sent, not from the fields."""
+        port = self._port()
+        if port is None:
+            return None
+        try:
+            return ptwl_target(
+                port,
+                np.asarray(params["translation"], dtype=float),
+                np.asarray(params["rotation"], dtype=float),
+                str(params["frame"]),
+                self.task_frames,
+            )
+        except UnknownNameError:
+            return None
 
     def _submit(self, view: CommandView, behavior: str, params: dict[str, Any], sender: str) -> None:
         self._after_change(view)
@@ -340,11 +359,13 @@ class ConsoleApp:
         screen, in red at STOP, and STOP is sent again until one is confirmed (StopSender)."""
         who = (operator_name(client.client_id) if client is not None else None) or "console"
         if self.twin is not None:
-            self.twin.on_stop()
+            self.twin.on_stop(time.time())
         self.stopper.press(who)
 
     def _stop_confirmed(self, result: StopResult) -> None:
         """(the STOP thread) The robot says what STOP ended: every line says so at once."""
+        if self.twin is not None:
+            self.twin.on_stop_confirmed(result.aborted)
         for view in self.history.stopped(result.aborted, result.dropped):
             self._after_change(view)
             self._announce_end(view)
@@ -530,6 +551,7 @@ class ConsoleApp:
             command += f" · {len(running) - 1} more queued"
         rtt = self.link_poller.rtt_s if self.link_poller is not None else 0.0
         prediction = self._prediction
+        trust, readout = twin_readout(time.time(), self.twin) if self.twin is not None else (None, "")
         return BarInputs(
             state,
             arrived,
@@ -542,6 +564,8 @@ class ConsoleApp:
             holder=operator_name(self.seat.holder) or "",
             predicted_port=tuple(prediction.port[0].tolist()) if prediction is not None else None,
             prediction_error=self.twin.error_summary() if self.twin is not None else None,
+            twin_readout=readout,
+            twin_sure=trust is not None and trust.sure,
             twin_note=self._twin_note(),
             recording=self._recording,
         )
@@ -558,6 +582,12 @@ class ConsoleApp:
 
     def _on_prediction(self, prediction: Prediction | None) -> None:
         self._prediction = prediction
+
+    def _on_tick(self, inputs: BarInputs) -> None:
+        """(the bar's thread) The ghost's label from the same readout: the twin's own thread
+        cannot say it lags while it lags."""
+        if self.ghost is not None and inputs.predicted_port is not None:
+            self.ghost.set_label(f"predicted · {inputs.twin_readout}")
 
     def _on_level(self, level: Level) -> None:
         if self.view is not None:

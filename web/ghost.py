@@ -71,8 +71,14 @@ class GhostView:
                     self._place(name, frame, np.asarray(pose, dtype=float))
             position, wxyz = prediction.port
             self._place("/twin_port", self.port, np.concatenate([position, wxyz]))
-            if self.label.text != error_text:
-                self.label.text = error_text
+        self.set_label(error_text)
+
+    def set_label(self, text: str) -> None:
+        """Say how far to trust the ghost: from the twin's thread as it moves the ghost, and from
+        the status bar's when that thread lags (then it cannot say so itself)."""
+        with self._lock:
+            if self.label.text != text:
+                self.label.text = text
 
     def hide(self) -> None:
         """No ghost while the twin idles; the next show() places every part again."""

@@ -17,7 +17,6 @@ import viser
 from web.markup import Markup, add_html, show
 from web.stop_sender import StopState
 from web.telemetry_health import LinkLine
-from web.twin import describe_error
 from web.worker import Worker
 
 TICK_S = 0.08  # the bar's refresh period: 12.5 updates/s whether or not telemetry arrives
@@ -62,6 +61,8 @@ class BarInputs:
     holder: str = ""  # who has control ("" nobody)
     predicted_port: tuple[float, float, float] | None = None  # [m] the ground twin's, if it runs
     prediction_error: tuple[float, float] | None = None  # [m] its last and 5 s max error
+    twin_readout: str = ""  # how far its predictions were off, or why it is unsure now
+    twin_sure: bool = False
     twin_note: str = ""  # why there is no prediction (the twin idles on a short link)
     recording: str = ""  # a replay: what is played (then nothing here reaches a robot)
 
@@ -76,9 +77,11 @@ class StatusBar(Worker):
         gui: viser.GuiApi,
         inputs: Callable[[], BarInputs],
         on_level: Callable[[Level], None],
+        on_tick: Callable[[BarInputs], None] = lambda _: None,
     ) -> None:
         self._inputs = inputs
         self._on_level = on_level
+        self._on_tick = on_tick  # what else draws this model each tick (the ghost's label)
         self.panel = gui.add_panel()
         first = inputs()
         with self.panel.add_tab("Robot status"):
@@ -101,6 +104,7 @@ class StatusBar(Worker):
             inputs = self._inputs()
             age, level = _judge(inputs, time.time())
             show(self.html, _render(inputs, age, level))
+            self._on_tick(inputs)
             if inputs.stop != stop_shown:
                 stop_shown = inputs.stop
                 show(self.stop_html, _stop_html(inputs.stop))
@@ -154,28 +158,47 @@ def _render(inputs: BarInputs, age: float | None, level: Level) -> Markup:
         link=link,
         command=inputs.command,
         holder=inputs.holder or "nobody",
-        prediction=_prediction_html(inputs.predicted_port, inputs.prediction_error, inputs.twin_note),
+        prediction=_prediction_html(
+            inputs.predicted_port,
+            inputs.prediction_error,
+            inputs.twin_readout,
+            inputs.twin_sure,
+            inputs.twin_note,
+        ),
         task=_task_html(state.get("task") if state else None),
     )
 
 
 def _prediction_html(
-    port: tuple[float, float, float] | None, error: tuple[float, float] | None, note: str = ""
+    port: tuple[float, float, float] | None,
+    error: tuple[float, float] | None,
+    readout: str,
+    sure: bool,
+    note: str = "",
 ) -> Markup:
-    """The ground twin's line: where it puts the port now, and how far off it has been (or why
-    there is no prediction)."""
+    """The ground twin's line: where it puts the port now, and how far off it has been or why it
+    cannot be believed now (or why there is no prediction)."""
     if port is None:
         return Markup(
-            '<div id="ptwl-prediction" data-x="" data-error-mm="" data-max-mm="" '
+            '<div id="ptwl-prediction" data-x="" data-error-mm="" data-max-mm="" data-sure="0" '
             'style="color:#868e96">{}</div>'
         ).format(note)
     x, y, z = (1000.0 * v for v in port)
     error_mm, max_mm = ("", "") if error is None else (f"{1000.0 * error[0]:.3f}", f"{1000.0 * error[1]:.3f}")
     return Markup(
         '<div id="ptwl-prediction" data-x="{x:.2f}" data-y="{y:.2f}" data-z="{z:.2f}" '
-        'data-error-mm="{error}" data-max-mm="{max}" style="color:#0c8599">'
-        "twin: port ({x:.1f}, {y:.1f}, {z:.1f}) mm · {judged}</div>"
-    ).format(x=x, y=y, z=z, error=error_mm, max=max_mm, judged=describe_error(error))
+        'data-error-mm="{error}" data-max-mm="{max}" data-sure="{sure}" style="color:{color}">'
+        "twin: port ({x:.1f}, {y:.1f}, {z:.1f}) mm · {readout}</div>"
+    ).format(
+        x=x,
+        y=y,
+        z=z,
+        error=error_mm,
+        max=max_mm,
+        sure=int(sure),
+        color="#0c8599" if sure else "#e8590c",
+        readout=readout,
+    )
 
 
 def _judge(inputs: BarInputs, now: float) -> tuple[float | None, Level]:

@@ -154,6 +154,8 @@ class GroundTwin:
         self.latest: Prediction | None = None
         self.point: TwinPoint | None = None
         self.errors: deque[tuple[float, float]] = deque()  # (arrival wall, |error| [m])
+        self.advanced_wall: float | None = None  # [s] the "now" of the last advance
+        self.stop_sent_wall: float | None = None  # [s] a STOP sent, not confirmed yet
         # The robot's task frames as the console last heard (its scene's are where the seed put
         # the fixtures, which the twin's nominal scene does not know).
         self.frames = TaskFrames()
@@ -164,8 +166,12 @@ class GroundTwin:
         Returns |predicted - reported| port position [m], if it had predicted that instant."""
         with self._lock:
             if self._state is not None and float(state["sim_time"]) < float(self._state["sim_time"]):
-                self._times.clear()  # a scene (re)loaded: what was predicted for the old one goes
+                # A scene (re)loaded: what was predicted for the old one goes, and so does its
+                # judgment (it said nothing of the new one); the twin restarts from this state.
+                self._times.clear()
                 self._ports.clear()
+                self.errors.clear()
+                self._resync_due = True
             self._state = state
             error = self._error_for(state)
             if error is not None:
@@ -198,11 +204,28 @@ class GroundTwin:
             self._resync_due = True
             self.point = None
 
-    def on_stop(self) -> None:
+    def on_stop(self, sent_wall: float) -> None:
+        """STOP sent: this console's commands will not run; until the robot confirms, the
+        twin still replays the robot's running move (the ghost is unsure: web/twin_trust.py)."""
         with self._lock:
             self._sent.clear()
             self._new_sends.clear()
             self._resync_due = True
+            self.stop_sent_wall = sent_wall
+
+    def on_stop_confirmed(self, aborted: int | None) -> None:
+        """The robot confirmed a STOP: the command it aborted is not replayed any more."""
+        with self._lock:
+            if self._running is not None and self._running.get("id") == aborted:
+                self._running = None
+            self.stop_sent_wall = None
+            self._resync_due = True
+
+    def judged_wall(self) -> float | None:
+        """[s] when a prediction was last judged against the robot's state; None: not since the
+        start or the last scene reset."""
+        with self._lock:
+            return self.errors[-1][0] if self.errors else None
 
     # ------------------------------------------------------------- the twin's thread
     def advance(self, now_wall: float) -> Prediction | None:
@@ -236,6 +259,7 @@ class GroundTwin:
         ctl = self.sim.controller
         port = (ctl.p_world_port.copy(), ctl.q_world_port.copy())
         self.latest = Prediction(self.sim.time, port, body_poses(self.sim.model, self.sim.data, self._moving))
+        self.advanced_wall = now_wall
         state_now = self.sim.state()
         self.point = TwinPoint(
             self.sim.scene.name,

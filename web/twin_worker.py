@@ -11,15 +11,17 @@ from collections.abc import Callable
 import viser
 
 from web.ghost import GhostView
-from web.twin import GroundTwin, Prediction, describe_error
+from web.twin import GroundTwin, Prediction
+from web.twin_trust import twin_readout
 from web.worker import Worker
 
 TICK_S = 0.02
 
 
-def error_text(summary: tuple[float, float] | None) -> str:
-    """The ghost's label: how far its predictions of the port were off when telemetry showed them."""
-    return f"predicted · {describe_error(summary)}"
+def ghost_label(twin: GroundTwin, now_wall: float) -> str:
+    """The ghost's label: how far its predictions of the port were off when telemetry showed
+    them, or why it cannot be believed now."""
+    return f"predicted · {twin_readout(now_wall, twin)[1]}"
 
 
 class TwinWorker(Worker):
@@ -57,5 +59,5 @@ class TwinWorker(Worker):
             if prediction is None:
                 continue
             with self._server.atomic():
-                self._ghost.show(prediction, error_text(self._twin.error_summary()))
+                self._ghost.show(prediction, ghost_label(self._twin, time.time()))
             self._on_prediction(prediction)
