@@ -205,3 +205,19 @@ def test_a_fast_approach_is_accepted_with_a_warning(robot: RobotClient) -> None:
     assert slow.warnings == []
     robot.stop()
     assert robot.state().limited is None  # at home nothing holds the arm back
+
+
+def test_a_move_within_its_tolerance_is_accepted_with_a_warning_and_ends_without_moving(
+    robot: RobotClient,
+) -> None:
+    """Issue 27: a 1.6 mm PTWL with the 2 mm default tolerance ended goal_reached in 0.00 s
+    without moving, and nothing said it would."""
+    small = robot.command("ptwl", translation=[0.0016, 0.0, 0.0], duration=1.0)
+    (warning,) = small.warnings
+    assert warning.startswith("the move (1.6 mm, 0 deg) is within its tolerances (2 mm, 1.15 deg)")
+    done = robot.wait(small.id, timeout=5.0)
+    assert done.exit == "goal_reached" and done.duration is not None and done.duration < 0.05
+    below = robot.command("ptwl", translation=[0.0016, 0.0, 0.0], duration=1.0, position_tolerance=0.0005)
+    assert below.warnings == []  # a tolerance under the move: it moves
+    assert robot.command("ptwl", translation=[0.0, 0.0, 0.0], duration=0.5).warnings == []  # gains only
+    robot.stop()

@@ -6,8 +6,8 @@ from fastapi import APIRouter, Body, Header, HTTPException, Query, Request, stat
 from fastapi.exceptions import RequestValidationError
 
 from guard.disconnect import client_gone
-from robot_sim.impact import impact_warnings
 from robot_sim.params import GripperParams, PtwlParams, StateMachineParams
+from robot_sim.ptwl_warnings import ptwl_warnings
 from server.models import (
     COMMAND_STATUS_RESPONSES,
     SENDER_DOC,
@@ -70,7 +70,7 @@ async def submit_command(
     warnings: list[str] = []
     if isinstance(params, PtwlParams):
         q_world_port = runner.latest_state["port"]["quaternion"]
-        warnings = impact_warnings(params, runner.sim.controller.gains, q_world_port, frames)
+        warnings = ptwl_warnings(params, runner.sim.controller.gains, q_world_port, frames)
     return CommandAccepted(id=record.id, instance=record.instance, warnings=warnings)
 
 
