@@ -105,6 +105,7 @@ class ConsoleApp:
         self._prediction: Prediction | None = None
         self.previewer = Previewer()
         self._recording = ""  # a replay's file name: the bar says it is a recording
+        self._scene_note = ""  # a reset on its way, or a new scene not drawn yet
         self.stopper = StopSender(
             lambda timeout_s: self.client.stop(timeout=timeout_s),
             lambda: self.link_poller.rtt_s if self.link_poller is not None else 0.0,
@@ -371,12 +372,18 @@ class ConsoleApp:
             self._announce_end(view)
 
     def reset_scene(self) -> None:
+        """Reset the robot's scene; the bar says it is on its way until the new scene is drawn
+        (a round trip for the reset, another for its geometry)."""
         assert self.board is not None
         seed = int(self.board.seed.value) or None
+        scene = str(self.board.scene.value)
+        self._scene_note = f"reset to {scene} sent at {time.strftime('%H:%M:%S')}, waiting for the robot"
         try:
-            self.client.reset_scene(str(self.board.scene.value), seed)
+            self.client.reset_scene(scene, seed)
+            self._scene_note = f"drawing the {scene} scene"
             self._reload_geometry()
         except (RobotError, httpx.HTTPError) as err:
+            self._scene_note = ""
             self._notify("Scene reset failed", str(err), "red")
 
     def _reload_geometry(self, geometry: GeometryModel | None = None) -> None:
@@ -389,6 +396,7 @@ class ConsoleApp:
             if self.ghost is not None:
                 self.ghost.load(geometry)
         self.scene_name = geometry.scene
+        self._scene_note = ""  # drawn: the bar's scene is the one in view
         if self.board is not None:
             self.board.show_scene(geometry.scene)
         for desk in self.desks():
@@ -419,6 +427,7 @@ class ConsoleApp:
             self._reconcile_soon()  # messages were lost: an end event may be among them
         if state["scene"] != self.scene_name and self.handshake is not None and self.handshake.met:
             self.scene_name = state["scene"]
+            self._scene_note = f"drawing the {state['scene']} scene"
             threading.Thread(target=self._reload_for_new_scene, daemon=True).start()
         if previous is None or state["gains"] != previous["gains"]:
             self.board.show_gains(state["gains"])
@@ -560,6 +569,7 @@ class ConsoleApp:
             rtt,
             command,
             self._restart_note,
+            scene_note=self._scene_note,
             stop=self.stopper.state,
             holder=operator_name(self.seat.holder) or "",
             predicted_port=tuple(prediction.port[0].tolist()) if prediction is not None else None,

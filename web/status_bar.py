@@ -57,6 +57,7 @@ class BarInputs:
     rtt_s: float  # the link's configured round trip (0 without a link)
     command: str  # the running or latest command, one line
     note: str  # e.g. "robot restarted at 12:00:01"
+    scene_note: str = ""  # a reset on its way, or a new scene not drawn yet
     stop: StopState = field(default_factory=StopState)
     holder: str = ""  # who has control ("" nobody)
     predicted_port: tuple[float, float, float] | None = None  # [m] the ground twin's, if it runs
@@ -124,8 +125,8 @@ def _render(inputs: BarInputs, age: float | None, level: Level) -> Markup:
         force_n = math.hypot(*state["wrench"][0:3])
         robot = Markup(
             "robot state #{} is <b>{:.2f} s old</b> · port ({:.1f}, {:.1f}, {:.1f}) mm · "
-            "<b>|f| {:.1f} N</b> · scene <b>{}</b>"
-        ).format(seq, age, x, y, z, force_n, state["scene"])
+            "<b>|f| {:.1f} N</b> · scene <b>{}</b>{}"
+        ).format(seq, age, x, y, z, force_n, state["scene"], _scene_note_html(inputs.scene_note))
     stale = Markup(" · <b>STALE</b>: the robot may have moved since") if level == "stale" else ""
     if inputs.recording:
         link = Markup(
@@ -167,6 +168,12 @@ def _render(inputs: BarInputs, age: float | None, level: Level) -> Markup:
         ),
         task=_task_html(state.get("task") if state else None),
     )
+
+
+def _scene_note_html(note: str) -> Markup:
+    if not note:
+        return Markup("")
+    return Markup(' · <b id="ptwl-scene-note" style="color:#f08c00">{}</b>').format(note)
 
 
 def _prediction_html(
