@@ -397,6 +397,9 @@ class ConsoleApp:
                 self.ghost.load(geometry)
         self.scene_name = geometry.scene
         self._scene_note = ""  # drawn: the bar's scene is the one in view
+        self.history.set_scene(geometry.scene)  # the counts are per scene, as the paper's tables
+        if self.board is not None:
+            self._show_history()
         if self.board is not None:
             self.board.show_scene(geometry.scene)
         for desk in self.desks():
@@ -613,7 +616,8 @@ class ConsoleApp:
 
     def _show_history(self) -> None:
         assert self.board is not None
-        self.board.show_history(self.history.counts(), list(reversed(self.history.recent(8))))
+        scene = self.history.scene
+        self.board.show_history(self.history.counts(scene), list(reversed(self.history.recent(8))), scene)
 
     def _notify(self, title: str, body: str, color: NotificationColor) -> None:
         for client in self.server.get_clients().values():

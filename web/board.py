@@ -52,10 +52,10 @@ class Board:
     def show_link_profile(self, text: str) -> None:
         show(self.link, Markup('<div id="ptwl-link-profile">{}</div>').format(text))
 
-    def show_history(self, counts: dict[str, Any], views: list[Any]) -> None:
-        """The paper's counts (PTWL by exit condition, RWE, Dither, peaks) and the latest commands,
-        newest first."""
-        show(self.history, _history_html(counts, views))
+    def show_history(self, counts: dict[str, Any], views: list[Any], scene: str = "") -> None:
+        """The paper's counts for `scene` (PTWL by exit condition, RWE, Dither, peaks) and the
+        latest commands, newest first."""
+        show(self.history, _history_html(counts, views, scene))
 
     def show_commanded(self, view: Any, distance_mm: float | None = None) -> None:
         """The commanded target the 3D marker shows (the last PTWL sent from this console), and
@@ -126,23 +126,49 @@ def _commanded_html(view: Any, distance_mm: float | None = None) -> Markup:
     )
 
 
-def _history_html(counts: dict[str, Any], views: list[Any]) -> Markup:
-    ptwl = ", ".join(f"{k} {v}" for k, v in sorted(counts["ptwl"].items())) or "none"
-    totals = Markup(
-        "<div><b>PTWL</b> {} ({}) · <b>RWE</b> {} · <b>Dither</b> {}</div>"
-        "<div>peak force {:.1f} N · peak torque {:.2f} N m</div>"
+def _percent(n: int, total: int) -> str:
+    return f"{100.0 * n / total:.0f}%" if total else "—"
+
+
+def _history_html(counts: dict[str, Any], views: list[Any], scene: str = "") -> Markup:
+    """The paper's behavior breakdown (Tables 1-3: RWE and PTWL with their share, PTWL by exit,
+    the total; state machine steps counted as the behaviors they ran) for this scene, and the
+    latest commands, newest first."""
+    total, by_exit = counts["behaviors"], counts["ptwl"]
+    known = ("timeout", "goal_reached", "wrench_breach")
+    others = ", ".join(f"{k} {v}" for k, v in sorted(by_exit.items()) if k not in known)
+    line = Markup("<tr><td>{}</td><td style='text-align:right'>{}</td></tr>")
+    rows = [
+        ("RWE", f"{counts['rwe']} ({_percent(counts['rwe'], total)})"),
+        ("PTWL", f"{counts['ptwl_total']} ({_percent(counts['ptwl_total'], total)})"),
+        ("PTWL timeout", by_exit.get("timeout", 0)),
+        ("PTWL goal reached", by_exit.get("goal_reached", 0)),
+        ("PTWL wrench breach", by_exit.get("wrench_breach", 0)),
+        *([("PTWL other", others)] if others else []),
+        ("Dither", counts["dither"]),
+        ("Behaviors in all", total),
+        ("Max force [N]", f"{counts['peak_force']:.1f}"),
+        ("Max torque [N m]", f"{counts['peak_torque']:.2f}"),
+    ]
+    breakdown = Markup(
+        '<table id="ptwl-counts" data-behaviors="{}" data-ptwl="{}" data-rwe="{}" data-scene="{}" '
+        'style="font-size:0.8em">'
+        "<caption style='text-align:left'>scene {} (steps of state machines included)</caption>{}</table>"
     ).format(
+        total,
         counts["ptwl_total"],
-        ptwl,
         counts["rwe"],
-        counts["dither"],
-        counts["peak_force"],
-        counts["peak_torque"],
+        scene,
+        scene or "—",
+        Markup("").join(line.format(name, value) for name, value in rows),
     )
-    row = Markup("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>")
-    rows = Markup("").join(
+    row = Markup(
+        '<tr><td title="{}">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>'
+    )
+    recent = Markup("").join(
         row.format(
             v.label,
+            v.short_label,
             v.behavior,
             v.status,
             (v.sender or "script").split(" at console")[0],
@@ -153,11 +179,11 @@ def _history_html(counts: dict[str, Any], views: list[Any]) -> Markup:
         for v in views
     )
     head = Markup(
-        "<tr><th>cmd</th><th>behavior</th><th>status</th><th>by</th><th>peak F [N]</th>"
-        "<th>peak τ [N m]</th><th>time [s]</th></tr>"
+        "<tr><th>cmd</th><th>behavior</th><th>status</th><th>by</th><th>F [N]</th>"
+        "<th>τ [N m]</th><th>t [s]</th></tr>"
     )
     table = Markup('<table id="ptwl-history" style="font-size:0.8em;text-align:left">{}{}</table>')
-    return Markup('<div style="font-size:0.85em">{}</div>').format(totals) + table.format(head, rows)
+    return breakdown + table.format(head, recent)
 
 
 def _scene_state_html(seq: int | None, arrived: float | None) -> Markup:

@@ -16,7 +16,7 @@ still cover the whole session.
 import threading
 import time
 from collections import Counter
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 EXIT_COLORS = {
@@ -50,6 +50,12 @@ class CommandView:
     resolved: bool = False  # target is the goal the robot computed when the command started
     sender: str | None = None
     steps: list[dict[str, Any]] = field(default_factory=list)  # a state machine's, as they end
+    scene: str = ""  # the robot's scene when the console first knew of it
+
+    @property
+    def short_label(self) -> str:
+        """The id's last 4 digits (ids are 16 digits long: the table's space is for the numbers)."""
+        return f"#…{self.id % 10_000:04d}" if self.id is not None else f"(local {self.local})"
 
     @property
     def label(self) -> str:
@@ -81,7 +87,8 @@ class _Folded:
 class CommandHistory:
     def __init__(self) -> None:
         self._lock = threading.Lock()
-        self._folded = _Folded()
+        self._folded: dict[str, _Folded] = {}  # per scene
+        self.scene = ""  # the scene new commands are counted under
         self._views: list[CommandView] = []
         self._by_id: dict[int, CommandView] = {}
         self._early: dict[int, dict[str, Any]] = {}  # events that beat their 202 back
@@ -90,7 +97,9 @@ class CommandHistory:
 
     def sent(self, behavior: str, target: Any = None, sender: str | None = None) -> CommandView:
         with self._lock:
-            view = CommandView(self._next_local, behavior, "sent", target=target, sender=sender)
+            view = CommandView(
+                self._next_local, behavior, "sent", target=target, sender=sender, scene=self.scene
+            )
             self._next_local += 1
             self._views.append(view)
             self._trim()
@@ -134,7 +143,7 @@ class CommandHistory:
                 if any(v.phase == "sent" and v.behavior == message["behavior"] for v in self._views):
                     self._early[command_id] = message
                     return None, False
-                view = CommandView(0, message["behavior"], "queued", id=command_id)
+                view = CommandView(0, message["behavior"], "queued", id=command_id, scene=self.scene)
                 self._views.append(view)
                 self._by_id[command_id] = view
                 self._trim()
@@ -172,7 +181,7 @@ class CommandHistory:
 
     def _add_record_view(self, record: dict[str, Any]) -> CommandView:
         """(under the lock) A view for a record of the robot's this console had not shown."""
-        view = CommandView(0, record["type"], "queued", id=int(record["id"]))
+        view = CommandView(0, record["type"], "queued", id=int(record["id"]), scene=self.scene)
         self._views.append(view)
         self._by_id[int(record["id"])] = view
         self._trim()
@@ -186,7 +195,7 @@ class CommandHistory:
             return
         old = [v for v in self._views if v.phase == "done"][:excess]
         for view in old:
-            _fold(self._folded, view)
+            _fold(self._folded.setdefault(view.scene, _Folded()), view)
             if view.id is not None:
                 self._by_id.pop(view.id, None)
         gone = {id(v) for v in old}
@@ -224,32 +233,61 @@ class CommandHistory:
         with self._lock:
             return self._views[-1] if self._views else None
 
-    def counts(self) -> dict[str, Any]:
-        """PTWL by exit condition, RWE and Dither counts, peak force and torque (paper's tables)."""
+    def set_scene(self, scene: str) -> None:
+        """The robot loaded `scene`: commands from now on count toward it (a task's table)."""
         with self._lock:
-            total = replace(self._folded, ptwl=Counter(self._folded.ptwl))
+            self.scene = scene
+
+    def counts(self, scene: str | None = None) -> dict[str, Any]:
+        """The paper's counts (Tables 1-3) for `scene` (None: every scene): PTWL by exit condition,
+        RWE, Dither and their total, with the steps of state machines counted as the behaviors they
+        ran; peak force and torque."""
+        with self._lock:
+            total = _Folded()
+            for name, folded in self._folded.items():
+                if scene is None or name == scene:
+                    _merge(total, folded)
             for view in self._views:
-                _fold(total, view)
+                if scene is None or view.scene == scene:
+                    _fold(total, view)
             return {
                 "ptwl": dict(total.ptwl),
                 "ptwl_total": sum(total.ptwl.values()),
                 "rwe": total.rwe,
                 "dither": total.dither,
+                "behaviors": sum(total.ptwl.values()) + total.rwe + total.dither,
                 "peak_force": total.peak_force,
                 "peak_torque": total.peak_torque,
             }
 
 
 def _fold(into: _Folded, view: "CommandView") -> None:
-    """Count a finished command (refused ones never ran: not counted)."""
+    """Count a command: a finished behavior (refused ones never ran: not counted), or each step a
+    state machine has finished so far (the paper counts the behaviors a task took)."""
+    if view.behavior == "state_machine":
+        for step in view.steps:
+            _count(into, step["behavior"], step["exit"], step.get("peak_force"), step.get("peak_torque"))
+        return
     if view.phase != "done" or view.exit == "refused":
         return
-    if view.behavior == "ptwl":
-        into.ptwl[str(view.exit)] += 1
-    into.rwe += view.behavior == "rwe"
-    into.dither += view.behavior == "dither"
-    into.peak_force = max(into.peak_force, view.peak_force or 0.0)
-    into.peak_torque = max(into.peak_torque, view.peak_torque or 0.0)
+    _count(into, view.behavior, view.exit, view.peak_force, view.peak_torque)
+
+
+def _count(into: _Folded, behavior: str, exit: str | None, force: float | None, torque: float | None) -> None:
+    if behavior == "ptwl":
+        into.ptwl[str(exit)] += 1
+    into.rwe += behavior == "rwe"
+    into.dither += behavior == "dither"
+    into.peak_force = max(into.peak_force, force or 0.0)
+    into.peak_torque = max(into.peak_torque, torque or 0.0)
+
+
+def _merge(into: _Folded, other: _Folded) -> None:
+    into.ptwl.update(other.ptwl)
+    into.rwe += other.rwe
+    into.dither += other.dither
+    into.peak_force = max(into.peak_force, other.peak_force)
+    into.peak_torque = max(into.peak_torque, other.peak_torque)
 
 
 def _apply_record(view: CommandView, record: dict[str, Any]) -> None:
