@@ -37,7 +37,7 @@ from web.history import CommandHistory, CommandView
 from web.link_poller import LinkPoller
 from web.playback import Playback, replay_status
 from web.preview import Previewer
-from web.robot_view import RobotView
+from web.robot_view import INITIAL_CAMERA, RobotView
 from web.seat import ControlSeat, operator_name
 from web.status_bar import BarInputs, Level, StatusBar
 from web.stop_sender import StopSender
@@ -74,9 +74,7 @@ class ConsoleApp:
         admit_only_through(self.front_door, self.server)
         self._host = host
         self._front_port = self.front_door.start()
-        # Looking at the workspace in front of the arm, from front-left and above.
-        self.server.initial_camera.position = (1.05, -0.75, 0.75)
-        self.server.initial_camera.look_at = (0.33, 0.0, 0.28)
+        self.server.initial_camera.position, self.server.initial_camera.look_at = INITIAL_CAMERA
         self.server.gui.configure_theme(control_width="large", dark_mode=False)
         self.history = CommandHistory()
         self.seat = ControlSeat()

@@ -8,13 +8,12 @@ A target pose is the port's: the marker's tip sits on it and its shaft runs back
 way the real tool extends behind its port.
 """
 
-from typing import Literal
-
 import numpy as np
 import trimesh
 import viser
 
-Anchor = Literal["bottom-left", "bottom-center", "top-right"]
+from web.label_places import MIN_DISTANCE_LABEL_MM, Anchor, LabelPlace
+
 MOVE_EPSILON = 1e-5  # [m] and quaternion units: below this a pose is not re-sent
 TIP_RADIUS_M = 0.008
 SHAFT_RADIUS_M = 0.012
@@ -40,9 +39,9 @@ class TargetMarker:
         name: str,
         label: str,
         color: tuple[int, int, int],
-        label_offset_m: tuple[float, float, float],
+        place: LabelPlace,
         wireframe: bool = False,
-        distance_anchor: Anchor = "bottom-center",
+        distance_anchor: Anchor = "top-left",
     ) -> None:
         mesh = tool_mesh()
         self.frame = scene.add_frame(
@@ -55,7 +54,7 @@ class TargetMarker:
             color=color,
             wireframe=wireframe,
         )
-        self.label = scene.add_label(f"/{name}/label", label, position=label_offset_m, anchor="center-left")
+        self.label = scene.add_label(f"/{name}/label", label, position=place.offset_m, anchor=place.anchor)
         self.line = scene.add_line_segments(
             f"/{name}_line",
             np.zeros((1, 2, 3)),
@@ -84,15 +83,17 @@ class TargetMarker:
             return
         visible = target is not None
         self.frame.visible = visible
-        self.line.visible = visible and port is not None
-        self.distance.visible = visible and port is not None
         if target is None:
+            self.line.visible = self.distance.visible = False
             self.distance_mm = None
             return
         position = np.asarray(target[0], dtype=float)
         self.frame.position, self.frame.wxyz = position, np.asarray(target[1], dtype=float)
-        if port is not None:
-            self.distance_mm = 1000.0 * float(np.linalg.norm(position - port))
+        self.distance_mm = None if port is None else 1000.0 * float(np.linalg.norm(position - port))
+        # No line and no "0.0 mm" on a target at the port: it would lie over the port's labels.
+        far = self.distance_mm is not None and self.distance_mm >= MIN_DISTANCE_LABEL_MM
+        self.line.visible = self.distance.visible = far
+        if far and port is not None:
             self.line.points = np.stack([port, position])[None]
             self.distance.position = (port + position) / 2.0
             self.distance.text = f"{self.distance_mm:.1f} mm"

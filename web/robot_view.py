@@ -16,6 +16,7 @@ import numpy as np
 import viser
 
 from server.models import GeometryModel
+from web.label_places import ATTRACTOR, COMMANDED, PORT
 from web.markers import TargetMarker
 from web.meshes import MeshPart, body_parts
 from web.sent_values import SentValues
@@ -27,6 +28,11 @@ RED = (224, 49, 49)
 FIXTURE_OPACITY = 0.55
 STALE_GREY = (150, 150, 150)
 FORCE_COLOR = (200, 40, 210)  # magenta: the arm is orange, so an orange arrow on it hid
+
+
+# The initial camera: looking at the workspace in front of the arm, from front-left and above
+# ((eye, look-at) [m]; tests/test_label_layout.py lays the labels out for it).
+INITIAL_CAMERA = ((1.05, -0.75, 0.75), (0.33, 0.0, 0.28))
 
 
 class RobotView:
@@ -59,20 +65,18 @@ class RobotView:
             origin_radius=0.004,
             origin_color=(255, 80, 80),
         )
-        # Labels sit apart: the attractor's above-left of its origin, the port's to its right, the
-        # commanded target's along its shaft (markers.py); none of them on another.
-        scene.add_label("/attractor/label", "attractor", position=(0.0, 0.0, 0.015), anchor="bottom-right")
-        scene.add_label("/port/label", "port", position=(0.0, 0.0, 0.015), anchor="top-left")
-        label_at = (0.0, 0.0, -0.06)
+        # Labels sit apart (web/label_places.py): none of them on another.
+        for name, text, place in (("attractor", "attractor", ATTRACTOR), ("port", "port", PORT)):
+            scene.add_label(f"/{name}/label", text, position=place.offset_m, anchor=place.anchor)
         self.commanded = TargetMarker(
-            scene, "commanded", "commanded", RED, label_at, distance_anchor="bottom-left"
+            scene, "commanded", "commanded", RED, COMMANDED, distance_anchor="bottom-left"
         )
         self.predicted = TargetMarker(
             scene,
             "predicted",
             "commanded: relative to port at start",
             RED,
-            label_at,
+            COMMANDED,
             wireframe=True,
             distance_anchor="bottom-left",
         )
