@@ -7,7 +7,9 @@ import viser
 
 AXES_LENGTH_M = 0.08  # longer than the markers' own axes (0.04 m): told apart at a glance
 AXES_RADIUS_M = 0.003
-LABEL_OFFSET_M = (0.0, 0.0, AXES_LENGTH_M + 0.008)  # above the z axis' tip, in the frame
+# The name's corner on the origin: at the z axis' tip it seemed to float off on its own for a
+# frame whose z lies across the view (issue 27).
+LABEL_OFFSET_M = (0.0, 0.0, 0.0)
 
 
 class FramesView:
@@ -39,7 +41,7 @@ class FramesView:
                     visible=self._visible,
                 )
                 label = self._scene.add_label(
-                    f"/task_frames/{name}/label", name, position=LABEL_OFFSET_M, anchor="bottom-center"
+                    f"/task_frames/{name}/label", name, position=LABEL_OFFSET_M, anchor="top-left"
                 )
                 self._drawn[name] = (axes, label)
             axes = self._drawn[name][0]
