@@ -156,9 +156,9 @@ def console(server: ServiceProcess) -> Iterator[ConsoleApp]:
 
 def wait_for_state(app: ConsoleApp) -> None:
     deadline = time.monotonic() + 10
-    while app._port() is None and time.monotonic() < deadline:
+    while app.commanding.port() is None and time.monotonic() < deadline:
         time.sleep(0.05)
-    assert app._port() is not None
+    assert app.commanding.port() is not None
 
 
 @dataclass
@@ -208,7 +208,7 @@ def test_fields_move_the_contemplated_ghost_and_the_gizmo(console: ConsoleApp) -
         panel.frame.value = "base"
         panel.translation.value = (20.0, -10.0, 5.0)  # mm
         desk.fields_changed()
-        port = console._port()
+        port = console.commanding.port()
         assert port is not None
         np.testing.assert_allclose(desk.gizmo.position, port[0] + [0.020, -0.010, 0.005], atol=2e-4)
         np.testing.assert_allclose(desk.contemplated.frame.position, desk.gizmo.position, atol=1e-9)
@@ -224,7 +224,7 @@ def test_dragging_the_gizmo_fills_the_fields(console: ConsoleApp) -> None:
     with viser_client(console) as desk:
         panel = desk.panel
         panel.frame.value = "base"
-        port = console._port()
+        port = console.commanding.port()
         assert port is not None
         desk.gizmo.position = port[0] + np.array([0.0, 0.03, -0.01])
         desk.gizmo.wxyz = (tf.SO3.from_z_radians(0.2) @ tf.SO3(port[1])).wxyz
@@ -244,10 +244,10 @@ def test_only_the_seat_holder_sends_and_the_record_says_who(
         assert all(button.disabled for button in b.panel.send_buttons)
         with RobotClient(server.url) as robot:
             before = len(robot.commands(limit=1000))
-            console.send(b, "rwe", b.panel.rwe_params())  # B is watching: nothing goes out
+            console.commanding.send(b, "rwe", b.panel.rwe_params())  # B is watching: nothing goes out
             assert len(robot.commands(limit=1000)) == before
             assert b.client.notes == ["Not sent: you are watching"]  # type: ignore[attr-defined]
-            console.send(c, "rwe", c.panel.rwe_params())
+            console.commanding.send(c, "rwe", c.panel.rwe_params())
             sent = robot.commands(limit=1)[0]
             assert sent.sender is not None and sent.sender.startswith(f"operator {c.client_id} at console")
         console.seat.take(b.client_id)  # a supervisor takes over
@@ -377,8 +377,9 @@ def test_the_force_arrow_ends_at_the_port_from_outside(console: ConsoleApp) -> N
     """The environment's force on the port is drawn ending at the port (on main it started there
     and ran up into the tool for a press)."""
     wait_for_state(console)
-    assert console.view is not None and console._state is not None
-    state = {**console._state, "wrench": [0.0, 0.0, 25.0, 0.0, 0.0, 0.0]}  # a press: pushed up
+    latest = console.link.latest()[0]
+    assert console.view is not None and latest is not None
+    state = {**latest, "wrench": [0.0, 0.0, 25.0, 0.0, 0.0, 0.0]}  # a press: pushed up
     console.view.update(state)
     tail, head = np.asarray(console.view.wrench.points)[0]
     np.testing.assert_allclose(head, state["port"]["position"], atol=1e-9)
@@ -404,7 +405,7 @@ def test_fixtures_are_see_through_and_the_markers_opaque(console: ConsoleApp) ->
             assert desk.contemplated.tool.opacity is None
         assert console.view.commanded.tool.opacity is None
     finally:
-        console._reload_geometry()
+        console.scene.draw()
 
 
 @pytest.mark.parametrize(
@@ -497,25 +498,25 @@ def test_commands_carry_max_age_round_trip_plus_margin_and_an_expiry_is_said(
     sent_at); a command the robot expired is announced with the robot's reason, in its colour."""
     wait_for_state(console)
     said: list[tuple[str, str, str]] = []
-    monkeypatch.setattr(console, "_notify", lambda title, body, color: said.append((title, body, color)))
-    link_profile = console.client.base_url + "/_link/profile"
-    assert console.link_poller is not None
+    monkeypatch.setattr(console.notifier, "notify", lambda title, body, color: said.append((title, body, color)))
+    link_profile = console.link.client.base_url + "/_link/profile"
+    assert console.link.poller is not None
     with viser_client(console) as desk, RobotClient(server.url) as robot:
         console.seat.take(desk.client_id)
         try:
             httpx.put(link_profile, json={"uplink": 0.05, "downlink": 0.1}).raise_for_status()
-            console.link_poller.poll()
+            console.link.poller.poll()
             before = time.time()
-            console.send(desk, "rwe", desk.panel.rwe_params())
+            console.commanding.send(desk, "rwe", desk.panel.rwe_params())
             sent = robot.commands(limit=1)[-1]
             assert sent.params["max_age"] == pytest.approx(0.15 + console.defaults.max_age_over_rtt_s)
             assert before <= sent.params["sent_at"] <= time.time()
             # One that is too old when its turn comes (here: any age over 1 us).
-            console.send(desk, "rwe", {**desk.panel.rwe_params(), "max_age": 1e-6})
+            console.commanding.send(desk, "rwe", {**desk.panel.rwe_params(), "max_age": 1e-6})
             expired = robot.wait(robot.commands(limit=1)[-1].id, timeout=5.0)
         finally:
             httpx.put(link_profile, json={"uplink": 0.0, "downlink": 0.0}).raise_for_status()
-            console.link_poller.poll()
+            console.link.poller.poll()
     assert expired.exit == "expired"
     deadline = time.monotonic() + 5.0
     while not any(title.endswith(": expired") for title, _, _ in said) and time.monotonic() < deadline:
@@ -532,27 +533,29 @@ def test_the_monitor_box_asks_for_the_force_task_monitor(console: ConsoleApp) ->
         panel.dither_monitor.value = True
         for behavior in ("ptwl", "dither"):
             params = panel.params(behavior)
-            assert params["monitor"] == {} and not console.check(behavior, params).errors
-            assert console.check(behavior, params).params.monitor.band_fraction == 0.3  # type: ignore[union-attr]
+            assert params["monitor"] == {} and not console.commanding.check(behavior, params).errors
+            assert console.commanding.check(behavior, params).params.monitor.band_fraction == 0.3  # type: ignore[union-attr]
 
 
 def test_the_twin_idles_on_a_short_link_and_runs_on_a_long_one(console: ConsoleApp) -> None:
     """Below [twin] min_round_trip_s the delayed picture is the present: no ghost, no core spent
     (and the bar says why); from a 0.3 s round trip on, the twin predicts."""
     wait_for_state(console)
-    worker, ghost, poller = console.twin_worker, console.ghost, console.link_poller
+    room = console.twin_room
+    assert room is not None
+    worker, ghost, poller = room.worker, room.ghost, console.link.poller
     assert worker is not None and ghost is not None and poller is not None
     assert worker.min_rtt_s == 0.25
-    profile = console.client.base_url + "/_link/profile"
+    profile = console.link.client.base_url + "/_link/profile"
 
     def settles(idle: bool) -> None:
         poller.poll()
         deadline = time.monotonic() + 5.0
-        while (worker.idle, console._prediction is None) != (idle, idle) and time.monotonic() < deadline:
+        while (worker.idle, room.prediction is None) != (idle, idle) and time.monotonic() < deadline:
             time.sleep(0.02)
-        assert worker.idle is idle and (console._prediction is None) is idle
+        assert worker.idle is idle and (room.prediction is None) is idle
         assert ghost.port.visible is not idle
-        assert ("twin: idle while the round trip is under 0.25 s" in console._twin_note()) is idle
+        assert ("twin: idle while the round trip is under 0.25 s" in room.idle_note()) is idle
 
     settles(idle=True)
     try:
@@ -570,31 +573,35 @@ def test_the_ghost_moves_at_once_on_send_and_its_error_is_judged(server: Service
         httpx.put(link.url + "/_link/profile", json={"uplink": 1.0, "downlink": 1.0}).raise_for_status()
         app = ConsoleApp(link.url, port=free_port())
         app.connect(timeout=30.0)
+        twin = app.twin_room
+        assert twin is not None
         try:
             wait_for_state(app)
-            assert app.link_poller is not None
-            app.link_poller.poll()
+            assert app.link.poller is not None
+            app.link.poller.poll()
             deadline = time.monotonic() + 10
-            while app._prediction is None and time.monotonic() < deadline:
+            while twin.prediction is None and time.monotonic() < deadline:
                 time.sleep(0.02)
-            assert app._prediction is not None
+            assert twin.prediction is not None
             with viser_client(app) as desk:
                 app.seat.take(desk.client_id)
                 desk.panel.frame.value = "base"
                 desk.panel.translation.value = (0.0, 40.0, 0.0)
-                before = app._prediction.port[0].copy()
-                sender = threading.Thread(target=app.send, args=(desk, "ptwl", desk.panel.ptwl_params()))
+                before = twin.prediction.port[0].copy()
+                sender = threading.Thread(
+                    target=app.commanding.send, args=(desk, "ptwl", desk.panel.ptwl_params())
+                )
                 sent = time.monotonic()
                 sender.start()
                 while (
-                    float(np.linalg.norm(app._prediction.port[0] - before)) < 1e-4
+                    float(np.linalg.norm(twin.prediction.port[0] - before)) < 1e-4
                     and time.monotonic() < sent + 2
                 ):
                     time.sleep(0.005)
                 moved_after_s = time.monotonic() - sent
                 sender.join()
                 time.sleep(4.5)  # the move (2 s) and a round trip for telemetry to show it
-            summary = app.twin.error_summary() if app.twin is not None else None
+            summary = twin.twin.error_summary()
         finally:
             app.close()
     assert moved_after_s < 0.1
@@ -613,7 +620,7 @@ def test_preview_says_how_a_move_ends_and_step_sends_its_first_part(
         desk.panel.translation.value = (0.0, 40.0, 20.0)
         desk.panel.duration.value = 10.0
         sent_before = len(robot.commands(limit=1000))
-        console.preview(desk)
+        console.commanding.preview(desk)
         shown = desk.panel.preview_html.content
         assert 'data-exit="goal_reached"' in shown and len(robot.commands(limit=1000)) == sent_before
         assert "from the latest telemetry" in shown  # a zero-delay link: the twin idles
@@ -622,10 +629,10 @@ def test_preview_says_how_a_move_ends_and_step_sends_its_first_part(
         assert compute_s < 1.0 and duration_s == pytest.approx(10.0, abs=0.6)
         drawn = desk.preview_marks.port.points  # the 10 s path, in at most MAX_SEGMENTS segments
         assert desk.preview_marks.port.visible and len(drawn) == MAX_SEGMENTS
-        port = console._port()
+        port = console.commanding.port()
         assert port is not None  # the path ends where the move goes: 40 mm in y, 20 mm in z
         np.testing.assert_allclose(drawn[-1][1], port[0] + [0.0, 0.040, 0.020], atol=0.0025)
-        console.send(desk, "ptwl", desk.panel.step_params())
+        console.commanding.send(desk, "ptwl", desk.panel.step_params())
         step = robot.commands(limit=1)[-1]
     assert step.params["translation"] == pytest.approx([0.0, 0.010, 0.005])
     assert step.params["duration"] == pytest.approx(2.5)

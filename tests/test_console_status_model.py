@@ -39,18 +39,18 @@ def test_a_confirmed_stop_ends_the_running_command_on_the_bar_even_if_its_end_ev
     console, _ = app
     with RobotClient(server.url) as robot:
         sent = robot.command("ptwl", translation=[0.0, 0.05, 0.0], duration=20.0, frame="base")
-        wait_until(lambda: f"#{sent.id}: running" in console._bar_inputs().command)
+        wait_until(lambda: f"#{sent.id}: running" in console.status.inputs().command)
         # From here the link loses every command event (the blackout of the issue).
-        lost = console.history.event
-        console.history.event = lambda message: (None, False)  # type: ignore[method-assign]
+        lost = console.log.history.event
+        console.log.history.event = lambda message: (None, False)  # type: ignore[method-assign]
         try:
-            console.stop()
-            wait_until(lambda: console.stopper.state.phase == "confirmed")
-            line = console._bar_inputs().command
+            console.commanding.stop()
+            wait_until(lambda: console.commanding.stopper.state.phase == "confirmed")
+            line = console.status.inputs().command
         finally:
-            console.history.event = lost  # type: ignore[method-assign]
+            console.log.history.event = lost  # type: ignore[method-assign]
     assert f"PTWL #{sent.id}: aborted" in line and "running" not in line
-    assert f"aborted #{sent.id}" in console.stopper.state.text
+    assert f"aborted #{sent.id}" in console.commanding.stopper.state.text
 
 
 def test_a_reset_says_it_is_on_its_way_until_the_new_scene_is_drawn(
@@ -62,26 +62,26 @@ def test_a_reset_says_it_is_on_its_way_until_the_new_scene_is_drawn(
     httpx.put(link.url + "/_link/profile", json={"uplink": 0.4, "downlink": 0.4}).raise_for_status()
     try:
         console.board.scene.value = "surface"
-        reset = threading.Thread(target=console.reset_scene)
+        reset = threading.Thread(target=console.scene.reset)
         reset.start()
-        wait_until(lambda: console._bar_inputs().scene_note != "", 1.0)
-        note = console._bar_inputs().scene_note
+        wait_until(lambda: console.status.inputs().scene_note != "", 1.0)
+        note = console.status.inputs().scene_note
         reset.join(timeout=10.0)
-        after = console._bar_inputs().scene_note
-        scene = console.scene_name
+        after = console.status.inputs().scene_note
+        scene = console.scene.name
     finally:
         httpx.put(link.url + "/_link/profile", json={"uplink": 0.0, "downlink": 0.0}).raise_for_status()
         console.board.scene.value = "free_space"
-        console.reset_scene()
+        console.scene.reset()
     assert note.startswith("reset to surface sent at ") and note.endswith(", waiting for the robot")
     assert after == "" and scene == "surface"  # drawn: nothing on its way
 
 
 def test_the_bar_says_who_has_control(app: tuple[ConsoleApp, ServiceProcess]) -> None:
     console, _ = app
-    assert console._bar_inputs().holder == ""
+    assert console.status.inputs().holder == ""
     console.seat.take(7)
     try:
-        assert console._bar_inputs().holder == "operator 7"
+        assert console.status.inputs().holder == "operator 7"
     finally:
         console.seat.release(7)

@@ -67,7 +67,8 @@ def test_a_stop_lost_in_a_blackout_is_in_view_in_red_and_retried_until_confirmed
     page.get_by_role("button", name="STOP").click()
     page.wait_for_function("document.querySelector('#ptwl-stop')?.dataset.phase === 'failed'", timeout=5_000)
     # Retried while the blackout lasts, each failure said and counted ...
-    page.wait_for_function("Number(document.querySelector('#ptwl-stop')?.dataset.attempts) >= 2", timeout=5_000)
+    attempts_2 = "Number(document.querySelector('#ptwl-stop')?.dataset.attempts) >= 2"
+    page.wait_for_function(attempts_2, timeout=5_000)
     text = page.locator("#ptwl-stop").inner_text()
     assert "NOT CONFIRMED (link dropped the request (blackout))" in text
     assert "the robot may still be moving" in text

@@ -1,0 +1,75 @@
+"""The status bar's model: one `BarInputs` a tick, read from the rooms that know each part (the
+link, the command log, STOP, the seat, the scene, the twin), so no two lines can disagree; and
+what else is drawn from it each tick (the ghost's label, the robot's STALE look)."""
+
+import time
+
+from web.command_log import CommandLog
+from web.commanding import Commanding
+from web.robot_link import RobotLink
+from web.robot_view import RobotView
+from web.scene_keeper import SceneKeeper
+from web.seat import ControlSeat, operator_name
+from web.status_bar import BarInputs, Level
+from web.twin_room import TwinRoom
+from web.twin_trust import twin_readout
+
+
+class StatusRoom:
+    def __init__(
+        self,
+        link: RobotLink,
+        log: CommandLog,
+        commanding: Commanding,
+        seat: ControlSeat,
+        scene: SceneKeeper,
+        twin: TwinRoom | None,
+        view: RobotView,
+    ) -> None:
+        self._link, self._log, self._commanding, self._seat = link, log, commanding, seat
+        self._scene, self._twin, self._view = scene, twin, view
+        self.recording = ""  # a replay's file name: the bar says it is a recording
+
+    def inputs(self) -> BarInputs:
+        state, arrived = self._link.latest()
+        history = self._log.history
+        running = history.live()
+        shown = running[0] if running else history.latest()
+        command = f"{shown.behavior.upper()} {shown.label}: {shown.status}" if shown else "no command yet"
+        if shown is not None and shown.sender:
+            command += f" (by {shown.sender})"
+        if len(running) > 1:
+            command += f" · {len(running) - 1} more queued"
+        rtt = self._link.rtt_s()
+        twin = self._twin
+        prediction = twin.prediction if twin is not None else None
+        trust, readout = twin_readout(time.time(), twin.twin) if twin is not None else (None, "")
+        return BarInputs(
+            state,
+            arrived,
+            self._link.link_up,
+            self._link.health.line(rtt, time.time()),
+            rtt,
+            command,
+            self._log.restart_note,
+            scene_note=self._scene.note,
+            stop=self._commanding.stopper.state,
+            holder=operator_name(self._seat.holder) or "",
+            predicted_port=tuple(prediction.port[0].tolist()) if prediction is not None else None,
+            prediction_error=twin.twin.error_summary() if twin is not None else None,
+            twin_readout=readout,
+            twin_sure=trust is not None and trust.sure,
+            twin_note=twin.idle_note() if twin is not None else "",
+            recording=self.recording,
+        )
+
+    def on_tick(self, inputs: BarInputs) -> None:
+        """(the bar's thread) The ghost's label from the same readout: the twin's own thread
+        cannot say it lags while it lags."""
+        if self._twin is not None and inputs.predicted_port is not None:
+            self._twin.ghost.set_label(f"predicted · {inputs.twin_readout}")
+
+    def on_level(self, level: Level) -> None:
+        silent_s = self._link.health.silent_s(time.time())
+        said = "link down" if not self._link.link_up else f"no telemetry for {silent_s or 0.0:.0f} s"
+        self._view.set_stale(level == "stale", f"STALE: {said}")
