@@ -193,11 +193,11 @@ _next_stub = iter(range(10_000, 20_000))
 def viser_client(app: ConsoleApp) -> Iterator[Desk]:
     """A desk for a new browser-less client, removed (as on disconnect) afterwards."""
     client = StubClient(app.server, next(_next_stub))
-    app._client_connected(client)  # type: ignore[arg-type]
+    app.desks.connected(client)  # type: ignore[arg-type]
     try:
-        yield next(d for d in app.desks() if d.client_id == client.client_id)
+        yield next(d for d in app.desks.all() if d.client_id == client.client_id)
     finally:
-        app._client_disconnected(client)  # type: ignore[arg-type]
+        app.desks.disconnected(client)  # type: ignore[arg-type]
 
 
 def test_fields_move_the_contemplated_ghost_and_the_gizmo(console: ConsoleApp) -> None:

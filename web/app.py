@@ -15,7 +15,6 @@ command's life with its exit condition and who sent it. One browser holds contro
 - `Board` (what every browser shares) and `Desk` (one per browser).
 """
 
-import threading
 from typing import Any
 
 import viser
@@ -25,7 +24,7 @@ from web.board import Board
 from web.command_log import CommandLog
 from web.commanding import Commanding
 from web.defaults import load_defaults
-from web.desk import Desk
+from web.desks import Desks
 from web.front_door import FrontDoor, admit_only_through
 from web.handshake import Catalog
 from web.known_frames import KnownFrames
@@ -34,12 +33,10 @@ from web.playback import Playback, replay_status
 from web.robot_link import RobotLink
 from web.robot_view import INITIAL_CAMERA, RobotView
 from web.scene_keeper import SceneKeeper
-from web.seat import ControlSeat, operator_name
+from web.seat import ControlSeat
 from web.status_bar import StatusBar
 from web.status_room import StatusRoom
 from web.twin_room import TwinRoom
-
-PLOT_EVERY = 5  # telemetry messages per plot refresh (10 Hz at 50 Hz telemetry)
 
 
 class ConsoleApp:
@@ -65,9 +62,6 @@ class ConsoleApp:
         self.server.gui.configure_theme(control_width="large", dark_mode=False)
         self.seat = ControlSeat()
         self.notifier = Notifier(self.server)
-        self._lock = threading.Lock()
-        self._desks: dict[int, Desk] = {}
-        self._count = 0
         self._closed = False
         self.playback: Playback | None = None  # when the robot is a recording
         self.catalog = Catalog.local()  # the console's own copy: Send shows without a round trip
@@ -76,6 +70,10 @@ class ConsoleApp:
         self.board = Board(self.server.gui, scene_names, scene_names[0], self.defaults.plot_s)
         self.log = CommandLog(self.link.client, self.board, self.view, self.notifier)
         self.frames = KnownFrames(self._frames_changed)
+        self.commanding = Commanding(
+            self.link, self.frames, self.log, self.seat, self.defaults, self.notifier, self.console_name
+        )
+        self.desks = Desks(self.catalog, self.defaults, self.seat, self.commanding, self.frames)
         self.scene = SceneKeeper(
             self.server,
             self.link,
@@ -84,10 +82,7 @@ class ConsoleApp:
             self.board,
             self.log,
             self.notifier,
-            self._scene_drawn,
-        )
-        self.commanding = Commanding(
-            self.link, self.frames, self.log, self.seat, self.defaults, self.notifier, self.console_name
+            self.desks.scene_drawn,
         )
         self.twin_room: TwinRoom | None = None  # the predictive display (not for a recording)
         if self.defaults.twin and not replay:
@@ -128,9 +123,9 @@ class ConsoleApp:
             self.status.recording = str(replay["file"]).rsplit("/", 1)[-1]
         self.bar.stop.on_click(lambda event: self.commanding.stop(event.client))
         self.board.reset_scene.on_click(lambda _: self.scene.reset())
-        self.seat.on_change(self._seat_changed)
-        self.server.on_client_connect(self._client_connected)
-        self.server.on_client_disconnect(self._client_disconnected)
+        if self.playback is None:  # a replay is watched, not commanded: no form to send from
+            self.server.on_client_connect(self.desks.connected)
+            self.server.on_client_disconnect(self.desks.disconnected)
         # The meshes go out after the panels, when the robot has answered.
         self.link.start(
             self.catalog,
@@ -150,62 +145,11 @@ class ConsoleApp:
         if timeout is not None and handshake is not None and not handshake.wait(timeout):
             raise RuntimeError(f"robot at {self.link.robot_url} not reachable within {timeout:g} s")
 
-    # ---------------------------------------------------------------- desks
-    def _client_connected(self, client: viser.ClientHandle) -> None:
-        if self._closed or self.playback is not None:
-            return  # a replay is watched, not commanded: no form to send from
-        presets = dict(self.catalog.presets)
-        dither = presets.pop("dither")
-        desk = Desk(
-            client,
-            self.defaults,
-            presets,
-            dither,
-            {t.name: t.summary for t in self.catalog.tasks},
-            self.seat,
-            self.commanding.port,
-            self.commanding.send,
-            self.commanding.check,
-            self.commanding.preview,
-            lambda: self.frames.task_frames,
-            self.commanding.edit_frame,
-        )
-        desk.panel.show_scene_task(self.scene.name)
-        desk.show_frames(self.frames.heard())
-        with self._lock:
-            self._desks[client.client_id] = desk
-
-    def _client_disconnected(self, client: viser.ClientHandle) -> None:
-        with self._lock:
-            self._desks.pop(client.client_id, None)
-        self.seat.release(client.client_id)
-
-    def desks(self) -> list[Desk]:
-        with self._lock:
-            return list(self._desks.values())
-
-    def _seat_changed(self, previous: int | None, new: int | None) -> None:
-        for desk in self.desks():
-            desk.seat_changed()
-            if desk.client_id == previous and new is not None:
-                desk.client.add_notification(
-                    "Control taken",
-                    f"{operator_name(new)} has control now; you are watching.",
-                    color="orange",
-                )
-
     def _frames_changed(self, frames: list[dict[str, Any]], task_frames: TaskFrames) -> None:
         """The robot's task frames, as now known: the twin and every desk use them."""
-        if self._closed:
-            return
         if self.twin_room is not None:
             self.twin_room.twin.frames = task_frames
-        for desk in self.desks():
-            desk.show_frames(frames)
-
-    def _scene_drawn(self, scene: str) -> None:
-        for desk in self.desks():
-            desk.panel.show_scene_task(scene)
+        self.desks.frames_changed(frames, task_frames)
 
     # ------------------------------------------------------------ telemetry
     def _on_state(self, state: dict[str, Any], arrived: float, previous: dict[str, Any] | None) -> None:
@@ -223,12 +167,8 @@ class ConsoleApp:
         with self.server.atomic():
             self.view.update(state)
             self.board.show_scene_state(state["seq"], arrived)
-        for desk in self.desks():
-            desk.update_contemplated()
-        self._count += 1
-        self.board.plots.add(state["sim_time"], state["wrench"])
-        if self._count % PLOT_EVERY == 0:
-            self.board.plots.refresh()
+        self.desks.state_arrived()
+        self.board.plot_state(state["sim_time"], state["wrench"])
 
     def _on_command(self, message: dict[str, Any]) -> None:
         if self._closed:
@@ -246,7 +186,7 @@ class ConsoleApp:
         return [name for name, part in parts if part is not None and part.running]
 
     def close(self) -> None:
-        self._closed = self.log.closed = self.scene.closed = True
+        self._closed = self.log.closed = self.scene.closed = self.desks.closed = True
         self.link.close()
         for part in (
             self.bar,

@@ -10,10 +10,12 @@ from web.panel import gains_html
 from web.plots import WrenchPlots
 
 BOARD_ORDER = 100.0  # below each browser's own form
+PLOT_EVERY = 5  # telemetry messages per plot refresh (10 Hz at 50 Hz telemetry)
 
 
 class Board:
     def __init__(self, gui: viser.GuiApi, scenes: list[str], scene: str, plot_window_s: float) -> None:
+        self._states = 0
         self.command_status = add_html(gui, _command_html(None), order=BOARD_ORDER)
         self.commanded = add_html(gui, _commanded_html(None), order=BOARD_ORDER + 0.5)
         self.gains = add_html(gui, Markup('<div id="ptwl-gains"></div>'), order=BOARD_ORDER + 0.6)
@@ -29,6 +31,13 @@ class Board:
             self.seed = gui.add_number("Seed (0: nominal)", 0, min=0, step=1)
             self.reset_scene = gui.add_button("Reset scene")
             self.link = add_html(gui, Markup('<div id="ptwl-link-profile">link: unknown</div>'))
+
+    def plot_state(self, sim_time: float, wrench: list[float]) -> None:
+        """A state's wrench into the plots, drawn every PLOT_EVERY states."""
+        self.plots.add(sim_time, wrench)
+        self._states += 1
+        if self._states % PLOT_EVERY == 0:
+            self.plots.refresh()
 
     def show_scene(self, scene: str) -> None:
         """The scene the robot has loaded, as the reset dropdown's choice."""

@@ -1,0 +1,95 @@
+"""The open browsers' desks: one made for each browser that connects (none for a replay, which is
+watched), gone when it leaves; told when control changes hands, the frames change or a new scene
+is drawn; moved with each state."""
+
+import threading
+from typing import Any
+
+import viser
+
+from robot_sim.task_frames import TaskFrames
+from web.commanding import Commanding
+from web.defaults import ConsoleDefaults
+from web.desk import Desk
+from web.handshake import Catalog
+from web.known_frames import KnownFrames
+from web.seat import ControlSeat, operator_name
+
+
+class Desks:
+    def __init__(
+        self,
+        catalog: Catalog,
+        defaults: ConsoleDefaults,
+        seat: ControlSeat,
+        commanding: Commanding,
+        frames: KnownFrames,
+    ) -> None:
+        presets = dict(catalog.presets)
+        self._dither_presets = presets.pop("dither")
+        self._stiffness_presets = presets
+        self._tasks = {t.name: t.summary for t in catalog.tasks}
+        self._defaults, self._seat, self._commanding, self._frames = defaults, seat, commanding, frames
+        self._lock = threading.Lock()
+        self._desks: dict[int, Desk] = {}
+        self.scene = ""  # the scene drawn: each new desk picks its task
+        self.closed = False
+        seat.on_change(self._seat_changed)
+
+    def connected(self, client: viser.ClientHandle) -> None:
+        if self.closed:
+            return
+        commanding = self._commanding
+        desk = Desk(
+            client,
+            self._defaults,
+            self._stiffness_presets,
+            self._dither_presets,
+            self._tasks,
+            self._seat,
+            commanding.port,
+            commanding.send,
+            commanding.check,
+            commanding.preview,
+            lambda: self._frames.task_frames,
+            commanding.edit_frame,
+        )
+        desk.panel.show_scene_task(self.scene)
+        desk.show_frames(self._frames.heard())
+        with self._lock:
+            self._desks[client.client_id] = desk
+
+    def disconnected(self, client: viser.ClientHandle) -> None:
+        with self._lock:
+            self._desks.pop(client.client_id, None)
+        self._seat.release(client.client_id)
+
+    def all(self) -> list[Desk]:
+        with self._lock:
+            return list(self._desks.values())
+
+    def _seat_changed(self, previous: int | None, new: int | None) -> None:
+        for desk in self.all():
+            desk.seat_changed()
+            if desk.client_id == previous and new is not None:
+                desk.client.add_notification(
+                    "Control taken",
+                    f"{operator_name(new)} has control now; you are watching.",
+                    color="orange",
+                )
+
+    def frames_changed(self, frames: list[dict[str, Any]], _: TaskFrames) -> None:
+        if self.closed:
+            return
+        for desk in self.all():
+            desk.show_frames(frames)
+
+    def scene_drawn(self, scene: str) -> None:
+        self.scene = scene
+        for desk in self.all():
+            desk.panel.show_scene_task(scene)
+
+    def state_arrived(self) -> None:
+        """The port moved: each desk's contemplated target moves with it."""
+        for desk in self.all():
+            desk.update_contemplated()
