@@ -25,6 +25,9 @@ class Check:
     errors: str = ""  # as the API's 422 would say it; empty when valid
     warnings: list[str] = field(default_factory=list)
     params: CommandParams | None = None  # as validated, defaults filled in
+    # The same refusals as the API's 422 lists them, {"field", "message", "type"} each: the
+    # console says each at the field it names, in that field's units.
+    by_field: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -41,11 +44,15 @@ def check_command(
     try:
         validated = _COMMAND.validate_python({"type": behavior, **params})
     except ValidationError as err:
-        return Check(errors=error_detail(field_errors(list(err.errors()))))  # type: ignore[arg-type]
+        return _refused(field_errors(list(err.errors())))  # type: ignore[arg-type]
     unknown_frames = frames.unknown_errors(validated)
     if unknown_frames:
-        return Check(errors=error_detail(field_errors(unknown_frames)))
+        return _refused(field_errors(unknown_frames))
     warnings: list[str] = []
     if isinstance(validated, PtwlParams) and q_world_port is not None and gains_now is not None:
         warnings = impact_warnings(validated, gains_now, q_world_port, frames)
     return Check(warnings=warnings, params=validated)
+
+
+def _refused(items: list[dict[str, Any]]) -> Check:
+    return Check(errors=error_detail(items), by_field=items)

@@ -1,22 +1,45 @@
 """The control panel of the paper's Fig. 2: PTWL, RWE and Dither tabs over a stiffness preset.
 
 Fields are in operator units (mm, deg); `ptwl_params()` and friends turn them into the API's SI
-request bodies. The panel only builds widgets and reads them; what a click does is wired by the
-app, which keeps this file free of robot and link logic.
+request bodies. Number fields hold exactly what was typed (web/typed_number.py): a request is
+made only from text that reads as a number, else FieldError, and the robot's rules' refusals are
+said at the field they concern, in its units. The panel only builds widgets and reads them; what
+a click does is wired by the app, which keeps this file free of robot and link logic.
 """
 
-import math
+import re
 from typing import Any
 
 import mujoco
 import numpy as np
 import viser
 
+from web.checks import Check
 from web.defaults import ConsoleDefaults
 from web.markup import Markup, add_html, show
+from web.typed_number import (
+    DEG,
+    HERTZ,
+    MM,
+    NEWTON_METRES,
+    NEWTONS,
+    PERCENT,
+    PLAIN,
+    SECONDS,
+    FieldError,
+    TypedNumber,
+    TypedVector,
+    Unit,
+)
 
 AXES = ("x", "y", "z", "rx", "ry", "rz")
 AMPLITUDE_LABELS = {"torsional": "Amplitude [deg]", "translational": "Amplitude (radius) [mm]"}
+# The API's amplitude is rad or m by mode; its rules say "rad or m" for both, "m" for the radius.
+AMPLITUDE_UNITS = {
+    "torsional": Unit("deg", ("rad or m", "rad"), DEG.per_si),
+    "translational": Unit("mm", ("rad or m", "m"), MM.per_si),
+}
+STEP_RANGE = "must be in (0, 100] %"  # the console's own notion: a part of the move
 FORM_ORDER = 10.0
 PREVIEW_HINT = (
     "run this PTWL on the ground twin, from where it puts the robot now, to its exit; nothing is sent"
@@ -58,32 +81,37 @@ class Panel:
         # as its Send button would (viser's page hotkeys are ignored inside text fields).
         self.forms: dict[str, viser.GuiFormHandle] = {}
         with tabs.add_tab("PTWL"), gui.add_form(None) as self.forms["ptwl"]:
-            self.translation = gui.add_vector3("Translation [mm]", tuple(d["translation_mm"]), step=0.1)
-            self.rotation = gui.add_vector3("Rotation [deg]", tuple(d["rotation_deg"]), step=0.1)
+            self.translation = TypedVector(gui, "translation", "Translation [mm]", d["translation_mm"], MM)
+            self.rotation = TypedVector(gui, "rotation", "Rotation [deg]", d["rotation_deg"], DEG)
             self.frame = gui.add_dropdown("Frame", BUILT_IN_FRAMES, initial_value=d["frame"], hint=FRAME_HINT)
-            self.duration = gui.add_number("Duration [s]", d["duration_s"], min=0.01, max=600.0, step=0.1)
-            self.force_threshold = gui.add_number(
-                "Force threshold [N]", d["force_threshold_n"], min=0.1, step=0.5
+            self.duration = TypedNumber(gui, "duration", "Duration [s]", d["duration_s"], SECONDS)
+            self.force_threshold = TypedNumber(
+                gui, "force-threshold", "Force threshold [N]", d["force_threshold_n"], NEWTONS
             )
-            self.torque_threshold = gui.add_number(
-                "Torque threshold [N m]", d["torque_threshold_nm"], min=0.01, step=0.05
+            self.torque_threshold = TypedNumber(
+                gui, "torque-threshold", "Torque threshold [N m]", d["torque_threshold_nm"], NEWTON_METRES
             )
             self.show_gizmo = gui.add_checkbox("Drag target in 3D", False)
+            self.contemplated_line = add_html(gui, contemplated_html(None, "no robot state yet"))
             # What is set once and left: folded away, so Send, Preview and Step stay in view.
             with gui.add_folder("Tolerances, watchdog, gains frame", expand_by_default=False):
-                self.position_tolerance = gui.add_number(
-                    "Position tolerance [mm]", d["position_tolerance_mm"], min=0.01, step=0.1
+                self.position_tolerance = TypedNumber(
+                    gui, "position-tolerance", "Position tolerance [mm]", d["position_tolerance_mm"], MM
                 )
-                self.orientation_tolerance = gui.add_number(
-                    "Orientation tolerance [deg]", d["orientation_tolerance_deg"], min=0.01, step=0.1
+                self.orientation_tolerance = TypedNumber(
+                    gui,
+                    "orientation-tolerance",
+                    "Orientation tolerance [deg]",
+                    d["orientation_tolerance_deg"],
+                    DEG,
                 )
                 self.watchdog_auto = gui.add_checkbox(
                     "Watchdog follows duration",
                     True,
                     hint="the robot's default: duration + 5 s; untick to set it",
                 )
-                self.watchdog = gui.add_number(
-                    "Watchdog [s]", d["duration_s"] + 5.0, min=0.01, max=600.0, step=0.5, disabled=True
+                self.watchdog = TypedNumber(
+                    gui, "watchdog", "Watchdog [s]", d["duration_s"] + 5.0, SECONDS, disabled=True
                 )
                 self.gains_frame = gui.add_dropdown(
                     "Gains frame",
@@ -97,12 +125,12 @@ class Panel:
             # IPSE's preview and step: see it run on the twin first; send it a part at a time.
             self.preview = gui.add_button("Preview", color="gray", hint=PREVIEW_HINT)
             self.preview_html = add_html(gui, preview_html(None))
-            self.step_percent = gui.add_number("Step [% of the move]", 25.0, min=1.0, max=100.0, step=5.0)
+            self.step_percent = TypedNumber(gui, "step", "Step [% of the move]", 25.0, PERCENT)
             self.send_step = gui.add_button("Send step", color="cyan", disabled=True, hint=STEP_HINT)
         with tabs.add_tab("RWE"), gui.add_form(None) as self.forms["rwe"]:
             self.rwe_axes = {a: gui.add_checkbox(a, a in defaults.rwe["axes"]) for a in AXES}
-            self.rwe_duration = gui.add_number(
-                "RWE duration [s]", defaults.rwe["duration_s"], min=0.01, max=600.0
+            self.rwe_duration = TypedNumber(
+                gui, "rwe-duration", "RWE duration [s]", defaults.rwe["duration_s"], SECONDS
             )
             self.rwe_frame = gui.add_dropdown(
                 "RWE frame", BUILT_IN_FRAMES, initial_value="base", hint=FRAME_HINT
@@ -115,17 +143,21 @@ class Panel:
             self.dither_preset = gui.add_dropdown("Dither preset", names, initial_value=first)
             self.dither_mode = gui.add_dropdown("Mode", ("torsional", "translational"))
             self.dither_direction = gui.add_dropdown("Direction", ("push", "pull"))
-            self.dither_axis = gui.add_vector3("Axis", (0.0, 0.0, 1.0), step=0.1)
+            self.dither_axis = TypedVector(gui, "dither-axis", "Axis", (0.0, 0.0, 1.0), PLAIN)
             self.dither_frame = gui.add_dropdown(
                 "Axis frame", BUILT_IN_FRAMES, initial_value="tool", hint=FRAME_HINT
             )
-            self.dither_amplitude = gui.add_number(AMPLITUDE_LABELS["torsional"], 1.0, min=0.001, step=0.1)
-            self.dither_frequency = gui.add_number("Frequency [Hz]", 1.0, min=0.01, max=10.0, step=0.1)
-            self.dither_travel = gui.add_number("Travel [mm]", 10.0, min=0.0, max=1000.0, step=0.5)
-            self.dither_duration = gui.add_number("Dither duration [s]", 5.0, min=0.01, max=600.0, step=0.5)
-            self.dither_force_threshold = gui.add_number("Dither force limit [N]", 30.0, min=0.1, step=0.5)
-            self.dither_torque_threshold = gui.add_number(
-                "Dither torque limit [N m]", 3.0, min=0.01, step=0.05
+            self.dither_amplitude = TypedNumber(
+                gui, "dither-amplitude", AMPLITUDE_LABELS["torsional"], 1.0, AMPLITUDE_UNITS["torsional"]
+            )
+            self.dither_frequency = TypedNumber(gui, "dither-frequency", "Frequency [Hz]", 1.0, HERTZ)
+            self.dither_travel = TypedNumber(gui, "dither-travel", "Travel [mm]", 10.0, MM)
+            self.dither_duration = TypedNumber(gui, "dither-duration", "Dither duration [s]", 5.0, SECONDS)
+            self.dither_force_threshold = TypedNumber(
+                gui, "dither-force-threshold", "Dither force limit [N]", 30.0, NEWTONS
+            )
+            self.dither_torque_threshold = TypedNumber(
+                gui, "dither-torque-threshold", "Dither torque limit [N m]", 3.0, NEWTON_METRES
             )
             self.dither_monitor = gui.add_checkbox("Dither force task monitor", False, hint=MONITOR_HINT)
             self.dither_check = add_html(gui, _check_html("dither", "", []))
@@ -142,9 +174,16 @@ class Panel:
                 disabled=True,
                 hint="the port's pose as the robot has it now",
             )
-            self.new_frame_position = gui.add_vector3("Typed origin [mm]", (400.0, 0.0, 300.0), step=1.0)
-            self.new_frame_rotation = gui.add_vector3(
-                "Typed rotation [deg]", (0.0, 0.0, 0.0), step=1.0, hint="rotation vector from base axes"
+            self.new_frame_position = TypedVector(
+                gui, "frame-origin", "Typed origin [mm]", (400.0, 0.0, 300.0), MM
+            )
+            self.new_frame_rotation = TypedVector(
+                gui,
+                "frame-rotation",
+                "Typed rotation [deg]",
+                (0.0, 0.0, 0.0),
+                DEG,
+                hint="rotation vector from base axes",
             )
             self.add_frame_typed = gui.add_button("Add typed pose", color="teal", disabled=True)
             self.delete_frame_name = gui.add_dropdown("Delete frame", ("(none)",), initial_value="(none)")
@@ -230,7 +269,37 @@ class Panel:
             "state_machine": [self.task],
             "gripper": [self.gripper_action],
         }
+        # The number fields each request is made from, by the API's name for them: where the
+        # robot's rules' refusals of a request are said.
+        self._typed: dict[str, dict[str, TypedNumber | TypedVector]] = {
+            "ptwl": {
+                "translation": self.translation,
+                "rotation": self.rotation,
+                "duration": self.duration,
+                "force_threshold": self.force_threshold,
+                "torque_threshold": self.torque_threshold,
+                "position_tolerance": self.position_tolerance,
+                "orientation_tolerance": self.orientation_tolerance,
+                "watchdog": self.watchdog,
+            },
+            "rwe": {"duration": self.rwe_duration},
+            "dither": {
+                "axis": self.dither_axis,
+                "amplitude": self.dither_amplitude,
+                "frequency": self.dither_frequency,
+                "travel": self.dither_travel,
+                "duration": self.dither_duration,
+                "force_threshold": self.dither_force_threshold,
+                "torque_threshold": self.dither_torque_threshold,
+            },
+            "state_machine": {},
+            "gripper": {},
+        }
         self._valid = dict.fromkeys(self.sends, True)
+        self._contemplated = contemplated_html(None, "no robot state yet")
+        self.step_percent.on_update(lambda _: self._check_step())
+        self.new_frame_position.on_update(lambda _: self._typed_pose_changed())
+        self.new_frame_rotation.on_update(lambda _: self._typed_pose_changed())
 
     @property
     def send_buttons(self) -> tuple[Any, ...]:
@@ -251,21 +320,88 @@ class Panel:
         self.take_control.visible = not mine
         show(self.control, _control_html(mine, holder))
 
-    def show_check(self, behavior: str, errors: str, warnings: list[str], watchdog_s: float | None) -> None:
-        """What the robot's own rules say of the request as typed; Send is off while it is invalid."""
+    def _in_use(self, behavior: str) -> dict[str, TypedNumber | TypedVector]:
+        """The number fields the request is made from now (the watchdog only when typed)."""
+        fields = self._typed[behavior]
+        if behavior == "ptwl" and self.watchdog_auto.value:
+            return {name: typed for name, typed in fields.items() if name != "watchdog"}
+        return fields
+
+    def show_check(self, behavior: str, check: Check) -> None:
+        """What the robot's own rules say of the request as typed: each refusal at its field, in
+        its units, and all of them on the check line; Send is off while it is refused."""
+        fields = self._in_use(behavior)
+        for typed in fields.values():
+            typed.clear()
+        said = []
+        for item in check.by_field:
+            at = fields.get(_field_named(item, fields))
+            if at is None:
+                said.append(f"{item['field']}: {item['message']}")
+                continue
+            refusal = at.refuse(item["message"])
+            named = "" if item["field"] == "body" else f"{item['field']}: "  # the message names it
+            said.append(named + refusal)
+        errors = "; ".join(said) or check.errors
         self._valid[behavior] = not errors
-        show(self._checks[behavior], _check_html(behavior, errors, warnings))
+        self._show_reasons(behavior)
+        show(self._checks[behavior], _check_html(behavior, errors, check.warnings))
+        watchdog_s = getattr(check.params, "watchdog", None)
         if behavior == "ptwl" and watchdog_s is not None and self.watchdog_auto.value:
-            _set(self.watchdog, round(watchdog_s, 3))
+            self.watchdog.value = round(watchdog_s, 3)
+        self.refresh_buttons()
+
+    def show_unreadable(self, behavior: str) -> None:
+        """A field's text is not a number: nothing is checked or sent until it is; each such
+        field says why, and the check line names them."""
+        fields = self._in_use(behavior)
+        for typed in fields.values():
+            typed.clear()  # judged on other text: the robot's words wait for a request to judge
+        self._valid[behavior] = False
+        self._show_reasons(behavior)
+        wrong = "; ".join(f"{t.label}: {t.reason}" for t in fields.values() if t.reason)
+        show(self._checks[behavior], _check_html(behavior, "", [], unreadable=wrong))
+        self.refresh_buttons()
+
+    def _show_reasons(self, behavior: str) -> None:
+        in_use = self._in_use(behavior)
+        for typed in self._typed[behavior].values():
+            typed.show(active=typed in in_use.values())
         self.watchdog.disabled = bool(self.watchdog_auto.value)
+
+    def show_contemplated(self, distance_mm: float | None, why_not: str) -> None:
+        """The contemplated target as the 3D view draws it, in words: how far from the port, or
+        why none is drawn (sent only when it changed: this follows every telemetry state)."""
+        shown = contemplated_html(distance_mm, why_not)
+        if shown != self._contemplated:
+            self._contemplated = shown
+            show(self.contemplated_line, shown)
+
+    def _check_step(self) -> None:
+        self.step_percent.clear()
+        try:
+            if not 0.0 < self.step_percent.value <= 100.0:
+                self.step_percent.refuse(f"{STEP_RANGE}, got {self.step_percent.value:g}")
+        except FieldError:
+            pass  # its reason is its text's
+        self.step_percent.show()
+        self.refresh_buttons()
+
+    def _typed_pose_changed(self) -> None:
+        self.new_frame_position.show()
+        self.new_frame_rotation.show()
         self.refresh_buttons()
 
     def refresh_buttons(self) -> None:
         for behavior, button in self.sends.items():
             button.disabled = not (self._mine and self._valid[behavior])
-        self.send_step.disabled = self.send_ptwl.disabled  # the same PTWL, a part of it
+        # The same PTWL, a part of it; its preview runs what Send would send.
+        self.send_step.disabled = self.send_ptwl.disabled or bool(self.step_percent.reason)
+        self.preview.disabled = not self._valid["ptwl"]
         # Frames change what commands mean: only the operator in control adds or deletes them.
-        self.add_frame_at_tool.disabled = self.add_frame_typed.disabled = not self._mine
+        self.add_frame_at_tool.disabled = not self._mine
+        typed_pose = (self.new_frame_position, self.new_frame_rotation)
+        self.add_frame_typed.disabled = not self._mine or any(t.reason for t in typed_pose)
         self.delete_frame.disabled = not self._mine or self.delete_frame_name.value == "(none)"
 
     def show_frames_known(self, frames: list[dict[str, Any]]) -> None:
@@ -280,13 +416,11 @@ class Panel:
         self.refresh_buttons()
 
     def typed_frame_pose(self) -> dict[str, list[float]]:
-        """The typed pose in the API's units: origin [m], axes as a quaternion from the rotation vector."""
+        """The typed pose in the API's units: origin [m], axes as a quaternion from the rotation
+        vector; FieldError if either is not three numbers."""
         quaternion = np.array([1.0, 0.0, 0.0, 0.0])
-        mujoco.mju_quatIntegrate(
-            quaternion, np.radians(np.asarray(self.new_frame_rotation.value, dtype=float)), 1.0
-        )
-        position = np.asarray(self.new_frame_position.value, dtype=float) / 1000.0
-        return {"position": position.tolist(), "quaternion": quaternion.tolist()}
+        mujoco.mju_quatIntegrate(quaternion, np.asarray(self.new_frame_rotation.si, dtype=float), 1.0)
+        return {"position": self.new_frame_position.si, "quaternion": quaternion.tolist()}
 
     def _stiffness_html(self) -> Markup:
         preset = self.stiffness_presets[str(self.stiffness.value)]
@@ -307,29 +441,31 @@ class Panel:
         show(self.task_summary, _summary_html(self.tasks.get(str(self.task.value), "")))
 
     def _label_amplitude(self) -> None:
-        self.dither_amplitude.label = AMPLITUDE_LABELS[str(self.dither_mode.value)]
+        mode = str(self.dither_mode.value)
+        self.dither_amplitude.relabel(AMPLITUDE_LABELS[mode], AMPLITUDE_UNITS[mode])
 
     # ------------------------------------------------------------ requests
     def ptwl_values(self) -> tuple[np.ndarray, np.ndarray, str]:
-        """(translation [m], rotation vector [rad], frame) from the fields."""
-        return (
-            np.asarray(self.translation.value, dtype=float) / 1000.0,
-            np.radians(np.asarray(self.rotation.value, dtype=float)),
-            str(self.frame.value),
-        )
+        """(translation [m], rotation vector [rad], frame) where the contemplated target is drawn;
+        FieldError while either is not numbers, or is what the robot's rules refuse (no target
+        is shown for a move that will not be sent)."""
+        for typed in (self.translation, self.rotation):
+            if typed.reason:
+                raise FieldError(f"{typed.label} is marked in red")
+        return np.asarray(self.translation.si), np.asarray(self.rotation.si), str(self.frame.value)
 
     def ptwl_params(self) -> dict[str, Any]:
-        translation, rotation, frame = self.ptwl_values()
+        """The PTWL as typed, in SI; FieldError while a field's text is not a number."""
         return {
-            "translation": translation.tolist(),
-            "rotation": rotation.tolist(),
-            "frame": frame,
-            "duration": float(self.duration.value),
-            "force_threshold": float(self.force_threshold.value),
-            "torque_threshold": float(self.torque_threshold.value),
-            "position_tolerance": float(self.position_tolerance.value) / 1000.0,
-            "orientation_tolerance": math.radians(float(self.orientation_tolerance.value)),
-            **({} if self.watchdog_auto.value else {"watchdog": float(self.watchdog.value)}),
+            "translation": self.translation.si,
+            "rotation": self.rotation.si,
+            "frame": str(self.frame.value),
+            "duration": self.duration.si,
+            "force_threshold": self.force_threshold.si,
+            "torque_threshold": self.torque_threshold.si,
+            "position_tolerance": self.position_tolerance.si,
+            "orientation_tolerance": self.orientation_tolerance.si,
+            **({} if self.watchdog_auto.value else {"watchdog": self.watchdog.si}),
             "preset": str(self.stiffness.value),
             **(
                 {} if self.gains_frame.value == PRESET_FRAME else {"gains_frame": str(self.gains_frame.value)}
@@ -341,15 +477,18 @@ class Panel:
         """The first part of the PTWL (IPSE's step): displacement and duration scaled alike, so the
         attractor walks the first stretch of the same path at the same speed."""
         params = self.ptwl_params()
-        part = float(self.step_percent.value) / 100.0
+        if self.step_percent.reason:
+            raise FieldError(f"{self.step_percent.label}: {self.step_percent.reason}")
+        part = self.step_percent.value / 100.0
         params["translation"] = [part * v for v in params["translation"]]
         params["rotation"] = [part * v for v in params["rotation"]]
         params["duration"] *= part
         return params
 
     def set_ptwl_displacement(self, translation_m: np.ndarray, rotation_rad: np.ndarray) -> None:
-        _set(self.translation, np.round(np.asarray(translation_m) * 1000.0, 2))
-        _set(self.rotation, np.round(np.degrees(rotation_rad), 2))
+        """Written as text to 0.01 mm and deg: what the fields then show is what is sent."""
+        self.translation.value = [round(v * MM.per_si, 2) for v in np.asarray(translation_m, dtype=float)]
+        self.rotation.value = [round(v * DEG.per_si, 2) for v in np.asarray(rotation_rad, dtype=float)]
 
     def task_params(self) -> dict[str, Any]:
         return {"task": str(self.task.value)}
@@ -360,7 +499,7 @@ class Panel:
     def rwe_params(self) -> dict[str, Any]:
         return {
             "axes": [a for a, box in self.rwe_axes.items() if box.value],
-            "duration": float(self.rwe_duration.value),
+            "duration": self.rwe_duration.si,
             "frame": str(self.rwe_frame.value),
         }
 
@@ -370,33 +509,28 @@ class Panel:
         _set(self.dither_mode, p["mode"])
         _set(self.dither_direction, p["direction"])
         self._label_amplitude()
-        _set(self.dither_axis, np.asarray(p["axis"], dtype=float))
-        torsional = p["mode"] == "torsional"
-        _set(
-            self.dither_amplitude,
-            round(math.degrees(p["amplitude"]) if torsional else p["amplitude"] * 1000, 3),
-        )
-        _set(self.dither_frequency, p["frequency"])
-        _set(self.dither_travel, round(p["travel"] * 1000.0, 3))
-        _set(self.dither_duration, p["duration"])
-        _set(self.dither_force_threshold, p["force_threshold"])
-        _set(self.dither_torque_threshold, p["torque_threshold"])
+        self.dither_axis.value = [float(v) for v in p["axis"]]
+        self.dither_amplitude.value = p["amplitude"] * self.dither_amplitude.unit.per_si
+        self.dither_frequency.value = p["frequency"]
+        self.dither_travel.value = p["travel"] * MM.per_si
+        self.dither_duration.value = p["duration"]
+        self.dither_force_threshold.value = p["force_threshold"]
+        self.dither_torque_threshold.value = p["torque_threshold"]
 
     def dither_params(self) -> dict[str, Any]:
-        """Every field explicit (the preset's name is not sent: what is shown is what runs)."""
-        amplitude = float(self.dither_amplitude.value)
-        torsional = self.dither_mode.value == "torsional"
+        """Every field explicit (the preset's name is not sent: what is shown is what runs);
+        FieldError while a field's text is not a number."""
         return {
             "mode": str(self.dither_mode.value),
             "direction": str(self.dither_direction.value),
-            "axis": list(self.dither_axis.value),
+            "axis": self.dither_axis.si,
             "frame": str(self.dither_frame.value),
-            "amplitude": math.radians(amplitude) if torsional else amplitude / 1000.0,
-            "frequency": float(self.dither_frequency.value),
-            "travel": float(self.dither_travel.value) / 1000.0,
-            "duration": float(self.dither_duration.value),
-            "force_threshold": float(self.dither_force_threshold.value),
-            "torque_threshold": float(self.dither_torque_threshold.value),
+            "amplitude": self.dither_amplitude.si,
+            "frequency": self.dither_frequency.si,
+            "travel": self.dither_travel.si,
+            "duration": self.dither_duration.si,
+            "force_threshold": self.dither_force_threshold.si,
+            "torque_threshold": self.dither_torque_threshold.si,
             **({"monitor": {}} if self.dither_monitor.value else {}),
         }
 
@@ -449,17 +583,42 @@ def _summary_html(summary: str) -> Markup:
     return Markup('<div style="font-size:0.85em;padding:0 4px">{}</div>').format(summary)
 
 
-def _check_html(behavior: str, errors: str, warnings: list[str]) -> Markup:
-    if errors:
+def _field_named(item: dict[str, Any], fields: dict[str, Any]) -> str:
+    """The request field an API error item is about: `translation` for `translation[1]`; for a
+    rule across fields (`body`), the field its message starts with ("watchdog (3 s) must ...")."""
+    name = re.split(r"[\[.]", str(item["field"]), maxsplit=1)[0]
+    if name == "body":
+        name = str(item["message"]).split(" ", 1)[0]
+    return name if name in fields else ""
+
+
+def _check_html(behavior: str, errors: str, warnings: list[str], unreadable: str = "") -> Markup:
+    if unreadable:  # not judged by the robot's rules at all: there is no request yet
+        body, color = f"not sent until fixed: {unreadable}", "#e03131"
+    elif errors:
         body, color = f"will be refused: {errors}", "#e03131"
     elif warnings:
         body, color = "accepted, but: " + " ".join(warnings), "#e8590c"
     else:
         body, color = "within the robot's limits", "#868e96"
     return Markup(
-        '<div id="ptwl-check-{}" data-valid="{}" data-warnings="{}" '
+        '<div id="ptwl-check-{}" data-valid="{}" data-readable="{}" data-warnings="{}" '
         'style="font-size:0.8em;color:{};padding:0 4px">{}</div>'
-    ).format(behavior, int(not errors), len(warnings), color, body)
+    ).format(behavior, int(not (errors or unreadable)), int(not unreadable), len(warnings), color, body)
+
+
+def contemplated_html(distance_mm: float | None, why_not: str = "") -> Markup:
+    """The contemplated target in words, as the 3D view draws it (the DOM can read this line; the
+    WebGL view it mirrors it cannot)."""
+    if distance_mm is None:
+        return Markup(
+            '<div id="ptwl-contemplated" data-shown="0" data-distance="" '
+            'style="font-size:0.8em;color:#868e96;padding:0 4px">no target drawn: {}</div>'
+        ).format(why_not)
+    return Markup(
+        '<div id="ptwl-contemplated" data-shown="1" data-distance="{:.1f}" '
+        'style="font-size:0.8em;color:#868e96;padding:0 4px">target {:.1f} mm from the port</div>'
+    ).format(distance_mm, distance_mm)
 
 
 def frames_html(frames: list[dict[str, Any]]) -> Markup:
