@@ -92,5 +92,5 @@ class TelemetryHealth:
             f" · {gap.lost} messages lost in a gap {now - gap.ended_at:.0f} s ago" if recent and gap else ""
         )
         return LinkLine(
-            "late" if recent else "fresh", head + f"telemetry flowing ({lost} lost in all){after}"
+            "late" if recent else "fresh", head + f"connected · telemetry flowing ({lost} lost in all){after}"
         )
