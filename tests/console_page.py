@@ -105,14 +105,29 @@ def wait_text(page, text: str, timeout_s: float) -> None:  # type: ignore[no-unt
     )
 
 
+# The floating status window over the view: the rectangle from its tab's top to STOP's bottom.
+STATUS_WINDOW = """() => {
+  const bar = document.querySelector('#ptwl-bar').getBoundingClientRect();
+  const stop = [...document.querySelectorAll('button')].find(b => b.innerText.trim() === 'STOP');
+  const bottom = stop ? stop.getBoundingClientRect().bottom : bar.bottom;
+  return [bar.left - 16, bar.top - 48, bar.right + 16, bottom + 16];
+}"""
+
+
 def view_hsv(page):  # type: ignore[no-untyped-def]
     """The 3D view's pixels as HSV (hue in degrees, saturation and value 0-1); viser's axes
-    triad in the bottom-left corner is blanked, its colours being those of any marker."""
-    png = page.locator("canvas").first.screenshot()
+    triad in the bottom-left corner and the status window (as tall as its text, over the view)
+    are blanked, their colours being those of the markers."""
+    canvas = page.locator("canvas").first
+    png = canvas.screenshot()
     hsv = np.asarray(Image.open(io.BytesIO(png)).convert("RGB").convert("HSV"), dtype=float)
     hsv[..., 0] *= 360.0 / 255.0
     hsv[..., 1:] /= 255.0
     hsv[-100:, :100] = 0.0
+    box = canvas.bounding_box()
+    left, top, right, bottom = (round(v) for v in page.evaluate(STATUS_WINDOW))
+    x0, y0 = round(box["x"]), round(box["y"])
+    hsv[max(0, top - y0) : max(0, bottom - y0), max(0, left - x0) : max(0, right - x0)] = 0.0
     return hsv
 
 

@@ -7,9 +7,9 @@ import viser
 
 AXES_LENGTH_M = 0.08  # longer than the markers' own axes (0.04 m): told apart at a glance
 AXES_RADIUS_M = 0.003
-# The name's corner on the origin: at the z axis' tip it seemed to float off on its own for a
-# frame whose z lies across the view (issue 27).
-LABEL_OFFSET_M = (0.0, 0.0, 0.0)
+# The name stands on the z axis' tip (8 mm beyond it, it seemed to float off on its own; on the
+# origin, its box hid the x and y axes: labels are drawn over everything).
+LABEL_OFFSET_M = (0.0, 0.0, AXES_LENGTH_M)
 
 
 class FramesView:
@@ -41,7 +41,7 @@ class FramesView:
                     visible=self._visible,
                 )
                 label = self._scene.add_label(
-                    f"/task_frames/{name}/label", name, position=LABEL_OFFSET_M, anchor="top-left"
+                    f"/task_frames/{name}/label", name, position=LABEL_OFFSET_M, anchor="bottom-center"
                 )
                 self._drawn[name] = (axes, label)
             axes = self._drawn[name][0]
