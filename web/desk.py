@@ -3,8 +3,11 @@ control seat. What it sends goes through the console's shared `send` (one path f
 and only what its fields show: a field whose text is not a number (FieldError) sends nothing,
 previews nothing and draws no target."""
 
+import threading
+import time
 from collections.abc import Callable
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, Protocol
 
 import numpy as np
 import viser
@@ -16,7 +19,7 @@ from web.defaults import ConsoleDefaults
 from web.frames_view import FramesView
 from web.label_places import CONTEMPLATED
 from web.markers import TargetMarker
-from web.markup import show
+from web.markup import Markup, add_html, show
 from web.panel import Panel, preview_html
 from web.preview import PreviewResult
 from web.preview_marks import PreviewMarks
@@ -25,36 +28,53 @@ from web.targets import Pose, displacement_to, ptwl_target
 from web.typed_number import FieldError
 
 YELLOW = (250, 204, 21)
-SendFn = Callable[["Desk", str, dict[str, Any]], None]
-PreviewFn = Callable[["Desk"], None]
-CheckFn = Callable[[str, dict[str, Any]], Check]
-FramesFn = Callable[[], TaskFrames]
-FrameEditFn = Callable[["Desk", str, "dict[str, list[float]] | str | None"], None]
+
+
+class DeskServices(Protocol):
+    """What a desk asks of the console (web/commanding.py): the robot's port and task frames as
+    last heard, its rules, and the ways to act on it."""
+
+    def port(self) -> Pose | None: ...
+
+    @property
+    def task_frames(self) -> TaskFrames: ...
+
+    def check(self, behavior: str, params: dict[str, Any]) -> Check: ...
+
+    def send(self, desk: "Desk", behavior: str, params: dict[str, Any]) -> None: ...
+
+    def preview(self, desk: "Desk") -> None: ...
+
+    def edit_frame(self, desk: "Desk", name: str, pose: "dict[str, list[float]] | str | None") -> None: ...
+
+
+@dataclass(frozen=True)
+class DeskCatalog:
+    """What every desk's form offers: the console's defaults and the robot's catalog."""
+
+    defaults: ConsoleDefaults
+    stiffness_presets: dict[str, dict[str, Any]]
+    dither_presets: dict[str, dict[str, Any]]
+    tasks: dict[str, str]  # name: summary
 
 
 class Desk:
     def __init__(
-        self,
-        client: viser.ClientHandle,
-        defaults: ConsoleDefaults,
-        stiffness_presets: dict[str, dict[str, Any]],
-        dither_presets: dict[str, dict[str, Any]],
-        tasks: dict[str, str],
-        seat: ControlSeat,
-        port: Callable[[], Pose | None],
-        send: SendFn,
-        check: CheckFn,
-        preview: PreviewFn,
-        frames: FramesFn,
-        edit_frame: FrameEditFn,
+        self, client: viser.ClientHandle, catalog: DeskCatalog, seat: ControlSeat, services: DeskServices
     ) -> None:
         self.client = client
         self.name = operator_name(client.client_id) or ""
         self._seat = seat
-        self._port = port
-        self._frames = frames
+        self._services = services
         self._syncing_gizmo = False
-        self.panel = Panel(client.gui, defaults, stiffness_presets, dither_presets, tasks)
+        # The preview on show: the request it ran (to tell when the fields moved on) and its
+        # result, or a preview still computing; one at a time.
+        self._preview_of: dict[str, Any] | None = None
+        self._preview_shown: tuple[PreviewResult | None, str] = (None, "")
+        self._preview_lock = threading.Lock()
+        self.panel = Panel(
+            client.gui, catalog.defaults, catalog.stiffness_presets, catalog.dither_presets, catalog.tasks
+        )
         scene = client.scene
         self.contemplated = TargetMarker(
             scene,
@@ -68,19 +88,20 @@ class Desk:
         self.preview_marks = PreviewMarks(scene)
         self.frames_view = FramesView(scene)
         panel = self.panel
+        edit_frame = services.edit_frame
         # Frames: add at the tool or a typed pose (the name typed), delete one (None: no pose).
         panel.add_frame_at_tool.on_click(lambda _: edit_frame(self, str(panel.new_frame_name.value), "tool"))
-        panel.add_frame_typed.on_click(lambda _: self._add_typed_frame(edit_frame))
+        panel.add_frame_typed.on_click(lambda _: self._add_typed_frame())
         panel.delete_frame.on_click(lambda _: edit_frame(self, str(panel.delete_frame_name.value), None))
         panel.delete_frame_name.on_update(lambda _: panel.refresh_buttons())
         panel.show_frames.on_update(lambda _: self.frames_view.set_visible(bool(panel.show_frames.value)))
-        panel.take_control.on_click(lambda _: seat.take(client.client_id))
+        panel.take_control.on_click(lambda _: self._take_control())
         for behavior, button in panel.sends.items():
-            button.on_click(self._sender(send, behavior))
-        panel.send_step.on_click(lambda _: self._send_typed(send, "ptwl", panel.step_params))
-        panel.preview.on_click(lambda _: self._preview(preview))
+            button.on_click(self._sender(behavior))
+        panel.send_step.on_click(lambda _: self._send_typed("ptwl", panel.step_params))
+        panel.preview.on_click(lambda _: self._preview())
         for behavior, form in panel.forms.items():  # Enter in one of the tab's fields
-            form.on_submit(self._key_sender(send, behavior))
+            form.on_submit(self._key_sender(behavior))
         # The target follows the PTWL's fields through its check (recheck), which first says
         # whether the robot's rules take them; the gizmo's box has no rule.
         panel.show_gizmo.on_update(lambda _: self.fields_changed())
@@ -92,12 +113,11 @@ class Desk:
         # field, e.g. after dragging the target in 3D): Enter sends the PTWL as Send would, Escape
         # clears the contemplated target back to "no move".
         send_key = client.gui.add_command("Send PTWL", description="as the Send cmd button", hotkey="enter")
-        send_key.on_trigger(self._key_sender(send, "ptwl"))
+        send_key.on_trigger(self._key_sender("ptwl"))
         clear_key = client.gui.add_command(
             "Clear target", description="translation and rotation to 0", hotkey="escape"
         )
         clear_key.on_trigger(lambda _: self.clear_contemplated())
-        self._check = check
         self.seat_changed()
         for behavior in self.panel.sends:
             self.recheck(behavior)
@@ -106,49 +126,114 @@ class Desk:
     def client_id(self) -> int:
         return self.client.client_id
 
-    def _key_sender(self, send: SendFn, behavior: str) -> Callable[[Any], None]:
+    def _key_sender(self, behavior: str) -> Callable[[Any], None]:
         """A key's send: only what the tab's button would send now (in control, valid)."""
 
         def send_if_enabled(_: Any) -> None:
             if not self.panel.sends[behavior].disabled:
-                self._send_typed(send, behavior, lambda: self.params(behavior))
+                self._send_typed(behavior, lambda: self.params(behavior))
 
         return send_if_enabled
 
-    def _send_typed(self, send: SendFn, behavior: str, make: Callable[[], dict[str, Any]]) -> None:
+    def _send_typed(self, behavior: str, make: Callable[[], dict[str, Any]]) -> None:
         """Send what `make` reads from the fields, unless a field's text is not a number (its
-        button is off then; this holds a click or key that came before the button turned off)."""
+        button is off then; this holds a click or key that came before the button turned off).
+        A preview on show was of what came before: it goes."""
         try:
             params = make()
         except FieldError as err:
             self.client.add_notification("Not sent: a field is marked in red", err.reason, color="red")
             return
-        send(self, behavior, params)
+        self.clear_preview()
+        self._services.send(self, behavior, params)
 
-    def _preview(self, preview: PreviewFn) -> None:
+    def _take_control(self) -> None:
+        """Take control at once when nobody has it; from another operator, only once confirmed
+        (a take-over ends their commanding mid-task)."""
+        holder = self._seat.holder
+        if holder is None or holder == self.client_id:
+            self._seat.take(self.client_id)
+            return
+        gui = self.client.gui
+        with gui.add_modal("Take control?") as modal:
+            add_html(
+                gui,
+                Markup(
+                    "<p><b>{}</b> has control now. Taking it leaves them watching; they will be told.</p>"
+                ).format(operator_name(holder)),
+            )
+            take = gui.add_button("Take control from them", color="orange")
+            cancel = gui.add_button("Cancel", color="gray")
+
+        def confirmed(_: Any) -> None:
+            self._seat.take(self.client_id)
+            modal.close()
+
+        take.on_click(confirmed)
+        cancel.on_click(lambda _: modal.close())
+
+    def _preview(self) -> None:
+        """Preview the PTWL as typed on its own thread (a busy twin takes seconds): "computing"
+        at once, then the result, marked stale if the fields moved on meanwhile."""
         try:
-            self.params("ptwl")
+            request = self.params("ptwl")
         except FieldError as err:
             self.show_preview(None, f"no preview: {err.reason}")
             return
-        preview(self)
+        if not self._preview_lock.acquire(blocking=False):
+            return  # one at a time: the one computing says so
+        self._preview_of = request
+        self._preview_shown = (None, "")
+        self.preview_marks.hide()
+        show(self.panel.preview_html, preview_html(None, time.strftime("%H:%M:%S"), "computing"))
 
-    def _add_typed_frame(self, edit_frame: FrameEditFn) -> None:
+        def run() -> None:
+            try:
+                self._services.preview(self)
+            finally:
+                self._preview_lock.release()
+
+        threading.Thread(target=run, name="ptwl-preview", daemon=True).start()
+
+    def _add_typed_frame(self) -> None:
         try:
             pose = self.panel.typed_frame_pose()
         except FieldError as err:
             self.client.add_notification("Frame not added: a field is marked in red", err.reason, color="red")
             return
-        edit_frame(self, str(self.panel.new_frame_name.value), pose)
+        self._services.edit_frame(self, str(self.panel.new_frame_name.value), pose)
 
     def show_preview(self, result: PreviewResult | None, note: str = "") -> None:
         """A preview's paths and exit in this browser only, with `note` (where it started from);
         None: why there is none (`note`)."""
+        self._preview_shown = (result, note)
         if result is None:
             self.preview_marks.hide()
         else:
             self.preview_marks.show(result)
-        show(self.panel.preview_html, preview_html(result, note))
+        self._show_preview_line(computing_done=True)
+
+    def clear_preview(self) -> None:
+        """No preview on show: a command went out, or the scene was reset."""
+        self._preview_of = None
+        self.show_preview(None)
+
+    def _show_preview_line(self, computing_done: bool = False) -> None:
+        """The preview's line, stale once the PTWL as typed is not the one it ran (while one is
+        computing, its line says so until its result comes)."""
+        if self._preview_lock.locked() and not computing_done:
+            return
+        result, note = self._preview_shown
+        stale = result is not None and self._preview_of is not None and self._typed_ptwl() != self._preview_of
+        if stale:
+            self.preview_marks.hide()
+        show(self.panel.preview_html, preview_html(result, note, "stale" if stale else ""))
+
+    def _typed_ptwl(self) -> dict[str, Any] | None:
+        try:
+            return self.params("ptwl")
+        except FieldError:
+            return None
 
     def clear_contemplated(self) -> None:
         self.panel.set_ptwl_displacement(np.zeros(3), np.zeros(3))
@@ -168,8 +253,8 @@ class Desk:
             self.recheck(behavior)
         self.fields_changed()
 
-    def _sender(self, send: SendFn, behavior: str) -> Callable[[Any], None]:
-        return lambda _: self._send_typed(send, behavior, lambda: self.params(behavior))
+    def _sender(self, behavior: str) -> Callable[[Any], None]:
+        return lambda _: self._send_typed(behavior, lambda: self.params(behavior))
 
     def params(self, behavior: str) -> dict[str, Any]:
         """The request as the fields show it; FieldError while a field's text is not a number."""
@@ -184,19 +269,18 @@ class Desk:
             except FieldError:
                 self.panel.show_unreadable(behavior)
             else:
-                self.panel.show_check(behavior, self._check(behavior, params))
+                self.panel.show_check(behavior, self._services.check(behavior, params))
             if behavior == "ptwl":
                 self.update_contemplated(move_gizmo=True)
-
-    def contemplated_target(self) -> Pose | None:
-        return self._target(self._port())[0]
+                if self._preview_of is not None:
+                    self._show_preview_line()
 
     def fields_changed(self) -> None:
         with self.client.atomic():
             self.update_contemplated(move_gizmo=True)
 
     def update_contemplated(self, move_gizmo: bool = False) -> None:
-        port = self._port()
+        port = self._services.port()
         target, why_not = self._target(port)
         self.contemplated.show(target, port[0] if port is not None else None)
         self.panel.show_contemplated(self.contemplated.distance_mm, why_not)
@@ -214,19 +298,21 @@ class Desk:
         if port is None:
             return None, "no robot state yet"
         try:
-            return ptwl_target(port, *self.panel.ptwl_values(), self._frames()), ""
+            return ptwl_target(port, *self.panel.ptwl_values(), self._services.task_frames), ""
         except UnknownNameError:
             return None, f"frame {self.panel.frame.value} not known"
         except FieldError as err:
             return None, err.reason
 
     def _gizmo_moved(self) -> None:
-        port = self._port()
+        port = self._services.port()
         if self._syncing_gizmo or port is None:
             return
         target = (np.asarray(self.gizmo.position), np.asarray(self.gizmo.wxyz))
         try:
-            translation, rotation = displacement_to(port, target, str(self.panel.frame.value), self._frames())
+            translation, rotation = displacement_to(
+                port, target, str(self.panel.frame.value), self._services.task_frames
+            )
         except UnknownNameError:
             return  # the frame went away under the gizmo: the check line says so
 

@@ -10,7 +10,7 @@ import viser
 from robot_sim.task_frames import TaskFrames
 from web.commanding import Commanding
 from web.defaults import ConsoleDefaults
-from web.desk import Desk
+from web.desk import Desk, DeskCatalog
 from web.handshake import Catalog
 from web.known_frames import KnownFrames
 from web.seat import ControlSeat, operator_name
@@ -26,10 +26,10 @@ class Desks:
         frames: KnownFrames,
     ) -> None:
         presets = dict(catalog.presets)
-        self._dither_presets = presets.pop("dither")
-        self._stiffness_presets = presets
-        self._tasks = {t.name: t.summary for t in catalog.tasks}
-        self._defaults, self._seat, self._commanding, self._frames = defaults, seat, commanding, frames
+        dither = presets.pop("dither")
+        tasks = {t.name: t.summary for t in catalog.tasks}
+        self._catalog = DeskCatalog(defaults, presets, dither, tasks)
+        self._seat, self._commanding, self._frames = seat, commanding, frames
         self._lock = threading.Lock()
         self._desks: dict[int, Desk] = {}
         self.scene = ""  # the scene drawn: each new desk picks its task
@@ -39,21 +39,7 @@ class Desks:
     def connected(self, client: viser.ClientHandle) -> None:
         if self.closed:
             return
-        commanding = self._commanding
-        desk = Desk(
-            client,
-            self._defaults,
-            self._stiffness_presets,
-            self._dither_presets,
-            self._tasks,
-            self._seat,
-            commanding.port,
-            commanding.send,
-            commanding.check,
-            commanding.preview,
-            lambda: self._frames.task_frames,
-            commanding.edit_frame,
-        )
+        desk = Desk(client, self._catalog, self._seat, self._commanding)
         desk.panel.show_scene_task(self.scene)
         desk.show_frames(self._frames.heard())
         with self._lock:
@@ -88,6 +74,7 @@ class Desks:
         self.scene = scene
         for desk in self.all():
             desk.panel.show_scene_task(scene)
+            desk.clear_preview()  # of the scene before
 
     def state_arrived(self) -> None:
         """The port moved: each desk's contemplated target moves with it."""

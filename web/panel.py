@@ -13,6 +13,7 @@ from typing import Any
 import mujoco
 import numpy as np
 import viser
+import viser.transforms as tf
 
 from web.checks import Check
 from web.defaults import ConsoleDefaults
@@ -622,9 +623,15 @@ def contemplated_html(distance_mm: float | None, why_not: str = "") -> Markup:
 
 
 def frames_html(frames: list[dict[str, Any]]) -> Markup:
-    """The task frames the robot has, each with where it came from."""
-    row = Markup("<li><b>{}</b> ({}: {})</li>")
-    rows = Markup("").join(row.format(f["name"], f["source"], f["defined_by"]) for f in frames)
+    """The task frames the robot has, each with its pose in base axes (origin, and rotation as the
+    typed rotation reads it: a rotation vector) and where it came from."""
+    row = Markup(
+        "<li><b>{}</b> origin ({:.1f}, {:.1f}, {:.1f}) mm, rotation ({:.1f}, {:.1f}, {:.1f}) deg "
+        "<span style='color:#868e96'>({}: {})</span></li>"
+    )
+    rows = Markup("").join(
+        row.format(f["name"], *_origin_mm(f), *_rotation_deg(f), f["source"], f["defined_by"]) for f in frames
+    )
     body = (
         Markup("<ul style='margin:0;padding-left:16px'>{}</ul>").format(rows)
         if frames
@@ -635,23 +642,46 @@ def frames_html(frames: list[dict[str, Any]]) -> Markup:
     )
 
 
-def preview_html(result: Any, note: str = "") -> Markup:
+def _origin_mm(frame: dict[str, Any]) -> list[float]:
+    return [1000.0 * v for v in frame["pose"]["position"]]
+
+
+def _rotation_deg(frame: dict[str, Any]) -> list[float]:
+    return np.degrees(tf.SO3(np.asarray(frame["pose"]["quaternion"], dtype=float)).log()).tolist()
+
+
+def preview_html(result: Any, note: str = "", state: str = "") -> Markup:
     """What the preview says (a PreviewResult, with `note` on where it started; None: `note`, why
-    there is none): exit, when, peak."""
+    there is none): exit, when, peak; `state` "computing" (since `note`) or "stale" (the fields
+    changed since it ran: it is not what Send would do now)."""
+    if state == "computing":
+        return Markup(
+            '<div id="ptwl-preview" data-exit="" data-state="computing" '
+            'style="color:#1971c2;font-size:0.85em">preview: computing (since {})…</div>'
+        ).format(note)
     if result is None:
         return Markup(
-            '<div id="ptwl-preview" data-exit="" style="color:#868e96;font-size:0.85em">{}</div>'
+            '<div id="ptwl-preview" data-exit="" data-state="" '
+            'style="color:#868e96;font-size:0.85em">{}</div>'
         ).format(note or "no preview yet")
+    stale = (
+        Markup(' <b style="color:#e8590c">STALE: the fields changed since; preview again</b>')
+        if state == "stale"
+        else ""
+    )
     return Markup(
-        '<div id="ptwl-preview" data-exit="{exit}" data-duration="{duration:.3f}" '
-        'data-peak-force="{force:.3f}" data-compute-s="{compute:.3f}" style="font-size:0.85em">'
+        '<div id="ptwl-preview" data-exit="{exit}" data-state="{state}" data-duration="{duration:.3f}" '
+        'data-peak-force="{force:.3f}" data-compute-s="{compute:.3f}" style="font-size:0.85em;{faded}">'
         "preview: <b>{exit}</b> after {duration:.2f} s, peak {force:.1f} N / {torque:.2f} N m "
-        '<span style="color:#868e96">(computed in {compute:.2f} s{started})</span></div>'
+        '<span style="color:#868e96">(computed in {compute:.2f} s{started})</span>{stale}</div>'
     ).format(
         exit=result.exit,
+        state=state,
         duration=result.duration_s,
         force=result.peak_force_n,
         torque=result.peak_torque_nm,
         compute=result.compute_s,
         started=f"; {note}" if note else "",
+        faded="opacity:0.6" if state == "stale" else "",
+        stale=stale,
     )
