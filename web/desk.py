@@ -205,7 +205,10 @@ class Desk:
 
     def show_preview(self, result: PreviewResult | None, note: str = "") -> None:
         """A preview's paths and exit in this browser only, with `note` (where it started from);
-        None: why there is none (`note`)."""
+        None: why there is none (`note`). A result that comes after the preview was cleared (a
+        send meanwhile) is of the past: dropped."""
+        if result is not None and self._preview_of is None:
+            return
         self._preview_shown = (result, note)
         if result is None:
             self.preview_marks.hide()
