@@ -24,7 +24,8 @@ def test_a_silent_stream_on_a_connected_link_says_so_and_counts_what_is_missing(
     last = flowing(health, range(0, 100), 1000.0)
     assert health.period_s == pytest.approx(PERIOD_S)
     line = health.line(3.0, last + 0.5)
-    assert line.level == "fresh" and line.text == "link round trip 3 s · connected · telemetry flowing (0 lost in all)"
+    assert line.level == "fresh"
+    assert line.text == "link round trip 3 s · connected · telemetry flowing (0 lost in all)"
     line = health.line(3.0, last + 9.0)  # a blackout: the transport still says connected
     assert line.level == "stale"
     assert "no telemetry for 9.0 s (~450 messages lost)" in line.text and "connected" in line.text
