@@ -641,10 +641,15 @@ def test_preview_says_how_a_move_ends_and_step_sends_its_first_part(
         port = console.commanding.port()
         assert port is not None  # the path ends where the move goes: 40 mm in y, 20 mm in z
         np.testing.assert_allclose(drawn[-1][1], port[0] + [0.0, 0.040, 0.020], atol=0.0025)
+        port = console.commanding.port()
         console.commanding.send(desk, "ptwl", desk.panel.step_params())
         step = robot.commands(limit=1)[-1]
+        commanded = console.log.commanded
     assert step.params["translation"] == pytest.approx([0.0, 0.010, 0.005])
     assert step.params["duration"] == pytest.approx(2.5)
+    # The commanded target is the step's (on main: the whole 45 mm move's until it started).
+    assert port is not None and commanded is not None and commanded.target is not None
+    np.testing.assert_allclose(commanded.target[0], port[0] + [0.0, 0.010, 0.005], atol=1e-9)
 
 
 def test_the_history_keeps_at_most_max_views_and_its_counts_cover_everything() -> None:

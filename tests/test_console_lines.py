@@ -1,0 +1,43 @@
+"""What the console's lines say, drawn from their models without a browser (issue 27.5): the
+bar's force, who has control and a recording said as such; frames listed with their poses."""
+
+import math
+
+from robot_sim.sim import Simulation
+from robot_sim.telemetry import state_fields
+from web.panel import frames_html
+from web.status_bar import BarInputs, _render
+from web.telemetry_health import LinkLine
+
+
+def bar(**more: object) -> str:
+    state = {**state_fields(Simulation("free_space"), []), "seq": 7, "sent_at": 100.0, "instance": "a"}
+    state["wrench"] = [3.0, 4.0, 0.0, 0.0, 0.0, 0.5]  # |f| 5 N
+    inputs = BarInputs(state, 100.1, True, LinkLine("fresh", "link round trip 0 s · connected"), 0.0, "", "")
+    return str(_render(BarInputs(**{**inputs.__dict__, **more}), 0.1, "fresh"))
+
+
+def test_the_bar_says_the_force_and_who_has_control() -> None:
+    assert "<b>|f| 5.0 N</b>" in bar()
+    assert '<span id="ptwl-holder">control: nobody</span>' in bar()
+    assert '<span id="ptwl-holder">control: operator 3</span>' in bar(holder="operator 3")
+
+
+def test_a_replay_says_it_is_a_recording_not_a_link() -> None:
+    shown = bar(recording="jam.mcap")
+    assert "<b>REPLAY</b> of jam.mcap: what was recorded, nothing here reaches a robot" in shown
+    assert "link round trip" not in shown  # on main: "link round trip 0 s" on a recording
+
+
+def test_frames_are_listed_with_their_poses() -> None:
+    half = math.sqrt(0.5)  # 90 deg about x
+    frames = [
+        {
+            "name": "slanted",
+            "source": "operator",
+            "defined_by": "typed pose",
+            "pose": {"position": [0.4, -0.05, 0.3], "quaternion": [half, half, 0.0, 0.0]},
+        }
+    ]
+    html = str(frames_html(frames))
+    assert "<b>slanted</b> origin (400.0, -50.0, 300.0) mm, rotation (90.0, 0.0, 0.0) deg" in html
