@@ -5,7 +5,7 @@ import math
 
 from robot_sim.sim import Simulation
 from robot_sim.telemetry import state_fields
-from web.panel import frames_html
+from web.panel_html import frames_html
 from web.status_bar import BarInputs, _render
 from web.telemetry_health import LinkLine
 

@@ -204,9 +204,9 @@ def test_fields_move_the_contemplated_ghost_and_the_gizmo(console: ConsoleApp) -
     wait_for_state(console)
     with viser_client(console) as desk:
         panel = desk.panel
-        panel.show_gizmo.value = True
-        panel.frame.value = "base"
-        panel.translation.value = (20.0, -10.0, 5.0)  # mm
+        panel.ptwl.show_gizmo.value = True
+        panel.ptwl.frame.value = "base"
+        panel.ptwl.translation.value = (20.0, -10.0, 5.0)  # mm
         desk.fields_changed()
         port = console.commanding.port()
         assert port is not None
@@ -223,14 +223,14 @@ def test_dragging_the_gizmo_fills_the_fields(console: ConsoleApp) -> None:
     wait_for_state(console)
     with viser_client(console) as desk:
         panel = desk.panel
-        panel.frame.value = "base"
+        panel.ptwl.frame.value = "base"
         port = console.commanding.port()
         assert port is not None
         desk.gizmo.position = port[0] + np.array([0.0, 0.03, -0.01])
         desk.gizmo.wxyz = (tf.SO3.from_z_radians(0.2) @ tf.SO3(port[1])).wxyz
         desk._gizmo_moved()
-        np.testing.assert_allclose(panel.translation.value, (0.0, 30.0, -10.0), atol=0.2)
-        np.testing.assert_allclose(panel.rotation.value, (0.0, 0.0, np.degrees(0.2)), atol=0.2)
+        np.testing.assert_allclose(panel.ptwl.translation.value, (0.0, 30.0, -10.0), atol=0.2)
+        np.testing.assert_allclose(panel.ptwl.rotation.value, (0.0, 0.0, np.degrees(0.2)), atol=0.2)
 
 
 def test_only_the_seat_holder_sends_and_the_record_says_who(
@@ -244,10 +244,10 @@ def test_only_the_seat_holder_sends_and_the_record_says_who(
         assert all(button.disabled for button in b.panel.send_buttons)
         with RobotClient(server.url) as robot:
             before = len(robot.commands(limit=1000))
-            console.commanding.send(b, "rwe", b.panel.rwe_params())  # B is watching: nothing goes out
+            console.commanding.send(b, "rwe", b.panel.rwe.params())  # B is watching: nothing goes out
             assert len(robot.commands(limit=1000)) == before
             assert b.client.notes == ["Not sent: you are watching"]  # type: ignore[attr-defined]
-            console.commanding.send(c, "rwe", c.panel.rwe_params())
+            console.commanding.send(c, "rwe", c.panel.rwe.params())
             sent = robot.commands(limit=1)[0]
             assert sent.sender is not None and sent.sender.startswith(f"operator {c.client_id} at console")
         console.seat.take(b.client_id)  # a supervisor takes over
@@ -509,12 +509,12 @@ def test_commands_carry_max_age_round_trip_plus_margin_and_an_expiry_is_said(
             httpx.put(link_profile, json={"uplink": 0.05, "downlink": 0.1}).raise_for_status()
             console.link.poller.poll()
             before = time.time()
-            console.commanding.send(desk, "rwe", desk.panel.rwe_params())
+            console.commanding.send(desk, "rwe", desk.panel.rwe.params())
             sent = robot.commands(limit=1)[-1]
             assert sent.params["max_age"] == pytest.approx(0.15 + console.defaults.max_age_over_rtt_s)
             assert before <= sent.params["sent_at"] <= time.time()
             # One that is too old when its turn comes (here: any age over 1 us).
-            console.commanding.send(desk, "rwe", {**desk.panel.rwe_params(), "max_age": 1e-6})
+            console.commanding.send(desk, "rwe", {**desk.panel.rwe.params(), "max_age": 1e-6})
             expired = robot.wait(robot.commands(limit=1)[-1].id, timeout=5.0)
         finally:
             httpx.put(link_profile, json={"uplink": 0.0, "downlink": 0.0}).raise_for_status()
@@ -530,9 +530,9 @@ def test_commands_carry_max_age_round_trip_plus_margin_and_an_expiry_is_said(
 def test_the_monitor_box_asks_for_the_force_task_monitor(console: ConsoleApp) -> None:
     with viser_client(console) as desk:
         panel = desk.panel
-        assert "monitor" not in panel.ptwl_params() and "monitor" not in panel.dither_params()
-        panel.monitor.value = True
-        panel.dither_monitor.value = True
+        assert "monitor" not in panel.ptwl.params() and "monitor" not in panel.dither.params()
+        panel.ptwl.monitor.value = True
+        panel.dither.monitor.value = True
         for behavior in ("ptwl", "dither"):
             params = panel.params(behavior)
             assert params["monitor"] == {} and not console.commanding.check(behavior, params).errors
@@ -587,12 +587,12 @@ def test_the_ghost_moves_at_once_on_send_and_its_error_is_judged(server: Service
             assert twin.prediction is not None
             with viser_client(app) as desk:
                 app.seat.take(desk.client_id)
-                desk.panel.frame.value = "base"
-                desk.panel.translation.value = (0.0, 40.0, 0.0)
+                desk.panel.ptwl.frame.value = "base"
+                desk.panel.ptwl.translation.value = (0.0, 40.0, 0.0)
                 before = twin.prediction.port[0].copy()
                 port_at_send = app.commanding.port()
                 sender = threading.Thread(
-                    target=app.commanding.send, args=(desk, "ptwl", desk.panel.ptwl_params())
+                    target=app.commanding.send, args=(desk, "ptwl", desk.panel.ptwl.params())
                 )
                 sent = time.monotonic()
                 sender.start()
@@ -625,12 +625,12 @@ def test_preview_says_how_a_move_ends_and_step_sends_its_first_part(
     wait_for_state(console)
     with viser_client(console) as desk, RobotClient(server.url) as robot:
         console.seat.take(desk.client_id)
-        desk.panel.frame.value = "base"
-        desk.panel.translation.value = (0.0, 40.0, 20.0)
-        desk.panel.duration.value = 10.0
+        desk.panel.ptwl.frame.value = "base"
+        desk.panel.ptwl.translation.value = (0.0, 40.0, 20.0)
+        desk.panel.ptwl.duration.value = 10.0
         sent_before = len(robot.commands(limit=1000))
-        console.commanding.preview(desk)
-        shown = desk.panel.preview_html.content
+        desk.preview_now(desk.params("ptwl"))
+        shown = desk.panel.ptwl.preview_html.content
         assert 'data-exit="goal_reached"' in shown and len(robot.commands(limit=1000)) == sent_before
         assert "from the latest telemetry" in shown  # a zero-delay link: the twin idles
         compute_s = float(shown.split('data-compute-s="')[1].split('"')[0])
@@ -642,7 +642,7 @@ def test_preview_says_how_a_move_ends_and_step_sends_its_first_part(
         assert port is not None  # the path ends where the move goes: 40 mm in y, 20 mm in z
         np.testing.assert_allclose(drawn[-1][1], port[0] + [0.0, 0.040, 0.020], atol=0.0025)
         port = console.commanding.port()
-        console.commanding.send(desk, "ptwl", desk.panel.step_params())
+        console.commanding.send(desk, "ptwl", desk.panel.ptwl.step_params())
         step = robot.commands(limit=1)[-1]
         commanded = console.log.commanded
     assert step.params["translation"] == pytest.approx([0.0, 0.010, 0.005])

@@ -141,41 +141,41 @@ def recheck(panel: Panel, behavior: str = "ptwl") -> None:
 
 def check_line(panel: Panel, behavior: str = "ptwl") -> str:
     """The check line's HTML, as the browser reads it."""
-    return html.unescape(str(panel._checks[behavior].content))
+    return html.unescape(str(panel._requests[behavior].check_line.content))
 
 
 def test_what_is_sent_is_the_typed_number_times_its_unit(panel: Panel) -> None:
-    type_into(panel.translation, "15", "-2.5e1", "0.5")
-    type_into(panel.rotation, "90", "0", "-45")
-    type_into(panel.position_tolerance, "2")
-    type_into(panel.orientation_tolerance, "1.5")
-    type_into(panel.duration, "3")
-    params = panel.ptwl_params()
+    type_into(panel.ptwl.translation, "15", "-2.5e1", "0.5")
+    type_into(panel.ptwl.rotation, "90", "0", "-45")
+    type_into(panel.ptwl.position_tolerance, "2")
+    type_into(panel.ptwl.orientation_tolerance, "1.5")
+    type_into(panel.ptwl.duration, "3")
+    params = panel.ptwl.params()
     assert params["translation"] == [15 / 1000, -25 / 1000, 0.5 / 1000]
     assert params["rotation"] == pytest.approx([math.pi / 2, 0.0, -math.pi / 4], abs=1e-15)
     assert params["position_tolerance"] == 2 / 1000
     assert params["orientation_tolerance"] == pytest.approx(math.radians(1.5), abs=1e-15)
     assert params["duration"] == 3.0
     recheck(panel)
-    assert panel._valid["ptwl"] and not panel.send_ptwl.disabled
+    assert panel._valid["ptwl"] and not panel.ptwl.send.disabled
     assert "within the robot's limits" in check_line(panel)
 
 
 @pytest.mark.parametrize("typed", ["abc", "0x10", "nan", "inf", "1_0", "2,5", ""])
 def test_a_field_that_is_not_a_number_makes_no_request_and_sends_nothing(panel: Panel, typed: str) -> None:
-    type_into(panel.translation, "15", "0", "0")
+    type_into(panel.ptwl.translation, "15", "0", "0")
     recheck(panel)
-    assert not panel.send_ptwl.disabled
-    type_into(panel.translation, typed, "0", "0")
-    assert panel.translation.texts == (typed, "0", "0")  # kept as typed, not rewritten
+    assert not panel.ptwl.send.disabled
+    type_into(panel.ptwl.translation, typed, "0", "0")
+    assert panel.ptwl.translation.texts == (typed, "0", "0")  # kept as typed, not rewritten
     with pytest.raises(FieldError):
-        panel.ptwl_params()  # never the last good value, 15 mm
+        panel.ptwl.params()  # never the last good value, 15 mm
     with pytest.raises(FieldError):
-        panel.ptwl_values()  # no target to draw either
+        panel.ptwl.values()  # no target to draw either
     recheck(panel)
-    assert panel.translation.reason.startswith("x: ")
-    assert panel.translation.reason_line.visible
-    assert panel.send_ptwl.disabled and panel.send_step.disabled and panel.preview.disabled
+    assert panel.ptwl.translation.reason.startswith("x: ")
+    assert panel.ptwl.translation.reason_line.visible
+    assert panel.ptwl.send.disabled and panel.ptwl.send_step.disabled and panel.ptwl.preview.disabled
     line = check_line(panel)
     assert "within the robot" not in line and 'data-valid="0"' in line
     assert "Translation [mm]: x: " in line
@@ -191,101 +191,104 @@ def test_a_field_that_is_not_a_number_makes_no_request_and_sends_nothing(panel: 
 def test_a_translation_out_of_range_is_refused_at_the_field_in_mm(
     panel: Panel, typed: str, value_mm: float, said: str
 ) -> None:
-    type_into(panel.translation, typed, "0", "0")
-    assert panel.translation.value == (value_mm, 0.0, 0.0)
-    assert panel.ptwl_params()["translation"] == [value_mm / 1000, 0.0, 0.0]  # what the robot judges
+    type_into(panel.ptwl.translation, typed, "0", "0")
+    assert panel.ptwl.translation.value == (value_mm, 0.0, 0.0)
+    assert panel.ptwl.params()["translation"] == [value_mm / 1000, 0.0, 0.0]  # what the robot judges
     recheck(panel)
-    assert panel.translation.reason == said
+    assert panel.ptwl.translation.reason == said
     assert f"translation: {said}" in check_line(panel)  # not "<= 1 m, got 5"
-    assert panel.send_ptwl.disabled and panel.preview.disabled
+    assert panel.ptwl.send.disabled and panel.ptwl.preview.disabled
     with pytest.raises(FieldError):
-        panel.ptwl_values()  # no target drawn for a move that will not be sent
-    type_into(panel.translation, "2.5e1", "0", "0")  # a new text is judged anew
+        panel.ptwl.values()  # no target drawn for a move that will not be sent
+    type_into(panel.ptwl.translation, "2.5e1", "0", "0")  # a new text is judged anew
     recheck(panel)
-    assert panel.translation.reason == "" and not panel.translation.reason_line.visible
-    assert panel.ptwl_values()[0].tolist() == [0.025, 0.0, 0.0]
-    assert not panel.send_ptwl.disabled
+    assert panel.ptwl.translation.reason == "" and not panel.ptwl.translation.reason_line.visible
+    assert panel.ptwl.values()[0].tolist() == [0.025, 0.0, 0.0]
+    assert not panel.ptwl.send.disabled
 
 
 def test_a_negative_duration_is_refused_at_the_duration_field_in_seconds(panel: Panel) -> None:
-    type_into(panel.translation, "0", "0", "70")
-    type_into(panel.duration, "-5")
-    assert panel.ptwl_params()["duration"] == -5.0  # not 0.01 s
+    type_into(panel.ptwl.translation, "0", "0", "70")
+    type_into(panel.ptwl.duration, "-5")
+    assert panel.ptwl.params()["duration"] == -5.0  # not 0.01 s
     recheck(panel)
-    assert panel.duration.reason == "must be in (0, 600] s, got -5 s"
-    assert panel.translation.reason == ""
-    assert panel.send_ptwl.disabled
+    assert panel.ptwl.duration.reason == "must be in (0, 600] s, got -5 s"
+    assert panel.ptwl.translation.reason == ""
+    assert panel.ptwl.send.disabled
     assert "m/s" not in check_line(panel)  # no impact speed from a duration nobody typed
 
 
 def test_the_watchdog_is_written_as_the_robot_applies_it(panel: Panel) -> None:
-    type_into(panel.translation, "0", "0", "5")
-    type_into(panel.duration, "9")
+    type_into(panel.ptwl.translation, "0", "0", "5")
+    type_into(panel.ptwl.duration, "9")
     recheck(panel)
-    assert panel.watchdog.texts == ("14",) and panel.watchdog.disabled
-    type_into(panel.duration, "abc")  # the auto watchdog is not read, nor rewritten
+    assert panel.ptwl.watchdog.texts == ("14",) and panel.ptwl.watchdog.disabled
+    type_into(panel.ptwl.duration, "abc")  # the auto watchdog is not read, nor rewritten
     recheck(panel)
-    assert panel.watchdog.texts == ("14",) and panel.watchdog.reason_line.visible is False
-    assert panel.duration.reason == NOT_A_NUMBER
+    assert panel.ptwl.watchdog.texts == ("14",) and panel.ptwl.watchdog.reason_line.visible is False
+    assert panel.ptwl.duration.reason == NOT_A_NUMBER
 
 
 def test_a_rule_across_fields_is_said_at_the_field_it_names(panel: Panel) -> None:
     """The translational radius cap is a model rule (`body`), named for its field."""
-    panel.dither_mode.value = "translational"
-    type_into(panel.dither_amplitude, "30")
+    panel.dither.mode.value = "translational"
+    type_into(panel.dither.amplitude, "30")
     recheck(panel, "dither")
     said = "amplitude must be in (0, 20] mm for translational mode, got 30 mm"
-    assert panel.dither_amplitude.reason == said
-    assert panel.send_dither.disabled
-    type_into(panel.dither_amplitude, "15")
+    assert panel.dither.amplitude.reason == said
+    assert panel.dither.send.disabled
+    type_into(panel.dither.amplitude, "15")
     recheck(panel, "dither")
-    assert panel.dither_amplitude.reason == "" and not panel.send_dither.disabled
-    assert panel.dither_params()["amplitude"] == 15 / 1000
+    assert panel.dither.amplitude.reason == "" and not panel.dither.send.disabled
+    assert panel.dither.params()["amplitude"] == 15 / 1000
 
 
 def test_values_set_by_the_console_are_written_as_text_and_read_back_alike(panel: Panel) -> None:
-    panel.set_ptwl_displacement([0.0123456, -0.0300001, 0.0], [0.0, 0.0, 0.2])  # type: ignore[arg-type]
-    assert panel.translation.texts == ("12.35", "-30", "0")
-    assert panel.rotation.texts == ("0", "0", "11.46")
-    assert panel.ptwl_params()["translation"] == [12.35 / 1000, -30 / 1000, 0.0]
-    preset = panel.dither_presets[str(panel.dither_preset.value)]
-    panel.fill_dither_fields()
-    assert panel.dither_travel.value == pytest.approx(preset["travel"] * 1000)
-    assert panel.dither_params()["duration"] == preset["duration"]
+    panel.ptwl.set_displacement([0.0123456, -0.0300001, 0.0], [0.0, 0.0, 0.2])  # type: ignore[arg-type]
+    assert panel.ptwl.translation.texts == ("12.35", "-30", "0")
+    assert panel.ptwl.rotation.texts == ("0", "0", "11.46")
+    assert panel.ptwl.params()["translation"] == [12.35 / 1000, -30 / 1000, 0.0]
+    preset = panel.dither.presets[str(panel.dither.preset.value)]
+    panel.dither.fill_fields()
+    assert panel.dither.travel.value == pytest.approx(preset["travel"] * 1000)
+    assert panel.dither.params()["duration"] == preset["duration"]
     with pytest.raises(ValueError):
-        panel.translation.value = (1.0, 2.0)
+        panel.ptwl.translation.value = (1.0, 2.0)
 
 
 def test_a_step_outside_the_move_is_refused_and_send_step_is_off(panel: Panel) -> None:
-    type_into(panel.translation, "0", "0", "5")
+    type_into(panel.ptwl.translation, "0", "0", "5")
     recheck(panel)
-    type_into(panel.step_percent, "150")
-    assert panel.step_percent.reason == "must be in (0, 100] %, got 150 %"
-    assert panel.send_step.disabled and not panel.send_ptwl.disabled
+    type_into(panel.ptwl.step_percent, "150")
+    assert panel.ptwl.step_percent.reason == "must be in (0, 100] %, got 150 %"
+    assert panel.ptwl.send_step.disabled and not panel.ptwl.send.disabled
     with pytest.raises(FieldError):
-        panel.step_params()
-    type_into(panel.step_percent, "5e1")
-    assert not panel.send_step.disabled
-    assert panel.step_params()["translation"] == [0.0, 0.0, 0.5 * 5 / 1000]
+        panel.ptwl.step_params()
+    type_into(panel.ptwl.step_percent, "5e1")
+    assert not panel.ptwl.send_step.disabled
+    assert panel.ptwl.step_params()["translation"] == [0.0, 0.0, 0.5 * 5 / 1000]
 
 
 def test_a_typed_frame_pose_that_is_not_numbers_is_not_added(panel: Panel) -> None:
-    type_into(panel.new_frame_position, "400", "abc", "300")
-    assert panel.add_frame_typed.disabled and panel.new_frame_position.reason == f"y: {NOT_A_NUMBER}"
+    type_into(panel.frames.new_frame_position, "400", "abc", "300")
+    assert (
+        panel.frames.add_frame_typed.disabled
+        and panel.frames.new_frame_position.reason == f"y: {NOT_A_NUMBER}"
+    )
     with pytest.raises(FieldError):
-        panel.typed_frame_pose()
-    type_into(panel.new_frame_position, "400", "0", "300")
-    assert not panel.add_frame_typed.disabled
-    assert panel.typed_frame_pose()["position"] == [0.4, 0.0, 0.3]
+        panel.frames.typed_pose()
+    type_into(panel.frames.new_frame_position, "400", "0", "300")
+    assert not panel.frames.add_frame_typed.disabled
+    assert panel.frames.typed_pose()["position"] == [0.4, 0.0, 0.3]
 
 
 def test_a_vector_written_by_the_console_is_heard_once_and_typing_always(panel: Panel) -> None:
     """A gizmo drag writes three components: one recheck, not three; an unchanged write, none."""
     heard: list[object] = []
-    panel.translation.on_update(heard.append)
-    panel.translation.value = (1.0, 2.0, 3.0)
-    assert len(heard) == 1 and panel.translation.texts == ("1", "2", "3")
-    panel.translation.value = (1.0, 2.0, 3.0)
+    panel.ptwl.translation.on_update(heard.append)
+    panel.ptwl.translation.value = (1.0, 2.0, 3.0)
+    assert len(heard) == 1 and panel.ptwl.translation.texts == ("1", "2", "3")
+    panel.ptwl.translation.value = (1.0, 2.0, 3.0)
     assert len(heard) == 1
-    type_into(panel.translation, "4", "2", "3")  # as the browser's updates arrive: each one heard
+    type_into(panel.ptwl.translation, "4", "2", "3")  # as the browser's updates arrive: each one heard
     assert len(heard) == 2

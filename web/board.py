@@ -6,7 +6,7 @@ from typing import Any
 import viser
 
 from web.markup import Markup, add_html, show
-from web.panel import gains_html
+from web.panel_html import gains_html
 from web.plots import WrenchPlots
 
 BOARD_ORDER = 100.0  # below each browser's own form

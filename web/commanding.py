@@ -21,7 +21,7 @@ from web.command_log import CommandLog
 from web.defaults import ConsoleDefaults
 from web.known_frames import KnownFrames
 from web.notifier import Notifier
-from web.preview import Previewer
+from web.preview import Previewer, PreviewResult
 from web.robot_link import RobotLink
 from web.seat import ControlSeat, operator_name
 from web.stop_sender import StopSender
@@ -70,21 +70,21 @@ class Commanding:
         q_world_port = np.asarray(state["port"]["quaternion"]) if state else None
         return check_command(behavior, params, gains, q_world_port, self._frames.task_frames)
 
-    def preview(self, desk: "Desk") -> None:
-        """Run the desk's PTWL on a copy of the model from where the twin puts the robot now (from
-        the latest telemetry when no twin runs: on a short link that is now)."""
-        checked = self.check("ptwl", desk.params("ptwl"))
+    def preview(self, request: dict[str, Any]) -> tuple[PreviewResult | None, str]:
+        """Run a PTWL request on a copy of the model from where the twin puts the robot now (from
+        the latest telemetry when no twin runs: on a short link that is now): (how it ends, where
+        it started), or (None, why there is none)."""
+        checked = self.check("ptwl", request)
         state, _ = self._link.latest()
         point = self.twin.point if self.twin is not None else None
         note = "" if point is not None else "from the latest telemetry"
         if point is None and state is not None:
             point = point_from_state(state, self._frames.task_frames)
         if not isinstance(checked.params, PtwlParams):
-            desk.show_preview(None, f"no preview: {checked.errors}")
-        elif point is None:
-            desk.show_preview(None, "no preview: no robot state yet")
-        else:
-            desk.show_preview(self.previewer.run(point, checked.params), note)
+            return None, f"no preview: {checked.errors}"
+        if point is None:
+            return None, "no preview: no robot state yet"
+        return self.previewer.run(point, checked.params), note
 
     # ------------------------------------------------------------- sends
     def send(self, desk: "Desk", behavior: str, params: dict[str, Any]) -> None:

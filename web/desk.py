@@ -20,7 +20,8 @@ from web.frames_view import FramesView
 from web.label_places import CONTEMPLATED
 from web.markers import TargetMarker
 from web.markup import Markup, add_html, show
-from web.panel import Panel, preview_html
+from web.panel import Panel
+from web.panel_html import preview_html
 from web.preview import PreviewResult
 from web.preview_marks import PreviewMarks
 from web.seat import ControlSeat, operator_name
@@ -43,7 +44,7 @@ class DeskServices(Protocol):
 
     def send(self, desk: "Desk", behavior: str, params: dict[str, Any]) -> None: ...
 
-    def preview(self, desk: "Desk") -> None: ...
+    def preview(self, request: dict[str, Any]) -> tuple[PreviewResult | None, str]: ...
 
     def edit_frame(self, desk: "Desk", name: str, pose: "dict[str, list[float]] | str | None") -> None: ...
 
@@ -70,6 +71,7 @@ class Desk:
         # The preview on show: the request it ran (to tell when the fields moved on) and its
         # result, or a preview still computing; one at a time.
         self._preview_of: dict[str, Any] | None = None
+        self._preview_gen = 0  # counts previews asked and clears: a late result is dropped
         self._preview_shown: tuple[PreviewResult | None, str] = (None, "")
         self._preview_lock = threading.Lock()
         self.panel = Panel(
@@ -90,21 +92,27 @@ class Desk:
         panel = self.panel
         edit_frame = services.edit_frame
         # Frames: add at the tool or a typed pose (the name typed), delete one (None: no pose).
-        panel.add_frame_at_tool.on_click(lambda _: edit_frame(self, str(panel.new_frame_name.value), "tool"))
-        panel.add_frame_typed.on_click(lambda _: self._add_typed_frame())
-        panel.delete_frame.on_click(lambda _: edit_frame(self, str(panel.delete_frame_name.value), None))
-        panel.delete_frame_name.on_update(lambda _: panel.refresh_buttons())
-        panel.show_frames.on_update(lambda _: self.frames_view.set_visible(bool(panel.show_frames.value)))
+        panel.frames.add_frame_at_tool.on_click(
+            lambda _: edit_frame(self, str(panel.frames.new_frame_name.value), "tool")
+        )
+        panel.frames.add_frame_typed.on_click(lambda _: self._add_typed_frame())
+        panel.frames.delete_frame.on_click(
+            lambda _: edit_frame(self, str(panel.frames.delete_frame_name.value), None)
+        )
+        panel.frames.delete_frame_name.on_update(lambda _: panel.refresh_buttons())
+        panel.frames.show_frames.on_update(
+            lambda _: self.frames_view.set_visible(bool(panel.frames.show_frames.value))
+        )
         panel.take_control.on_click(lambda _: self._take_control())
         for behavior, button in panel.sends.items():
             button.on_click(self._sender(behavior))
-        panel.send_step.on_click(lambda _: self._send_typed("ptwl", panel.step_params))
-        panel.preview.on_click(lambda _: self._preview())
+        panel.ptwl.send_step.on_click(lambda _: self._send_typed("ptwl", panel.ptwl.step_params))
+        panel.ptwl.preview.on_click(lambda _: self._preview())
         for behavior, form in panel.forms.items():  # Enter in one of the tab's fields
             form.on_submit(self._key_sender(behavior))
         # The target follows the PTWL's fields through its check (recheck), which first says
         # whether the robot's rules take them; the gizmo's box has no rule.
-        panel.show_gizmo.on_update(lambda _: self.fields_changed())
+        panel.ptwl.show_gizmo.on_update(lambda _: self.fields_changed())
         for behavior in panel.sends:
             for field in panel.fields(behavior):
                 field.on_update(lambda _, b=behavior: self.recheck(b))
@@ -182,33 +190,40 @@ class Desk:
             return
         if not self._preview_lock.acquire(blocking=False):
             return  # one at a time: the one computing says so
-        self._preview_of = request
+        self._preview_gen += 1
+        generation = self._preview_gen
         self._preview_shown = (None, "")
         self.preview_marks.hide()
-        show(self.panel.preview_html, preview_html(None, time.strftime("%H:%M:%S"), "computing"))
+        show(self.panel.ptwl.preview_html, preview_html(None, time.strftime("%H:%M:%S"), "computing"))
 
         def run() -> None:
             try:
-                self._services.preview(self)
+                self.preview_now(request, generation)
             finally:
                 self._preview_lock.release()
 
         threading.Thread(target=run, name="ptwl-preview", daemon=True).start()
 
+    def preview_now(self, request: dict[str, Any], generation: int | None = None) -> None:
+        """(the preview's thread, or a test) Run `request` and show how it ends, unless a send or
+        a new scene came since it was asked (`generation`): then it is of the past."""
+        result, note = self._services.preview(request)
+        if generation is not None and generation != self._preview_gen:
+            return
+        self._preview_of = request
+        self.show_preview(result, note)
+
     def _add_typed_frame(self) -> None:
         try:
-            pose = self.panel.typed_frame_pose()
+            pose = self.panel.frames.typed_pose()
         except FieldError as err:
             self.client.add_notification("Frame not added: a field is marked in red", err.reason, color="red")
             return
-        self._services.edit_frame(self, str(self.panel.new_frame_name.value), pose)
+        self._services.edit_frame(self, str(self.panel.frames.new_frame_name.value), pose)
 
     def show_preview(self, result: PreviewResult | None, note: str = "") -> None:
         """A preview's paths and exit in this browser only, with `note` (where it started from);
-        None: why there is none (`note`). A result that comes after the preview was cleared (a
-        send meanwhile) is of the past: dropped."""
-        if result is not None and self._preview_of is None:
-            return
+        None: why there is none (`note`)."""
         self._preview_shown = (result, note)
         if result is None:
             self.preview_marks.hide()
@@ -218,6 +233,7 @@ class Desk:
 
     def clear_preview(self) -> None:
         """No preview on show: a command went out, or the scene was reset."""
+        self._preview_gen += 1  # a preview still computing is of what came before
         self._preview_of = None
         self.show_preview(None)
 
@@ -230,7 +246,7 @@ class Desk:
         stale = result is not None and self._preview_of is not None and self._typed_ptwl() != self._preview_of
         if stale:
             self.preview_marks.hide()
-        show(self.panel.preview_html, preview_html(result, note, "stale" if stale else ""))
+        show(self.panel.ptwl.preview_html, preview_html(result, note, "stale" if stale else ""))
 
     def _typed_ptwl(self) -> dict[str, Any] | None:
         try:
@@ -239,7 +255,7 @@ class Desk:
             return None
 
     def clear_contemplated(self) -> None:
-        self.panel.set_ptwl_displacement(np.zeros(3), np.zeros(3))
+        self.panel.ptwl.set_displacement(np.zeros(3), np.zeros(3))
         self.fields_changed()
         self.recheck("ptwl")
 
@@ -286,8 +302,8 @@ class Desk:
         port = self._services.port()
         target, why_not = self._target(port)
         self.contemplated.show(target, port[0] if port is not None else None)
-        self.panel.show_contemplated(self.contemplated.distance_mm, why_not)
-        show = bool(self.panel.show_gizmo.value) and target is not None
+        self.panel.ptwl.show_contemplated(self.contemplated.distance_mm, why_not)
+        show = bool(self.panel.ptwl.show_gizmo.value) and target is not None
         appearing = show and not self.gizmo.visible
         self.gizmo.visible = show
         if show and target is not None and (move_gizmo or appearing):
@@ -301,9 +317,9 @@ class Desk:
         if port is None:
             return None, "no robot state yet"
         try:
-            return ptwl_target(port, *self.panel.ptwl_values(), self._services.task_frames), ""
+            return ptwl_target(port, *self.panel.ptwl.values(), self._services.task_frames), ""
         except UnknownNameError:
-            return None, f"frame {self.panel.frame.value} not known"
+            return None, f"frame {self.panel.ptwl.frame.value} not known"
         except FieldError as err:
             return None, err.reason
 
@@ -314,9 +330,9 @@ class Desk:
         target = (np.asarray(self.gizmo.position), np.asarray(self.gizmo.wxyz))
         try:
             translation, rotation = displacement_to(
-                port, target, str(self.panel.frame.value), self._services.task_frames
+                port, target, str(self.panel.ptwl.frame.value), self._services.task_frames
             )
         except UnknownNameError:
             return  # the frame went away under the gizmo: the check line says so
 
-        self.panel.set_ptwl_displacement(translation, rotation)
+        self.panel.ptwl.set_displacement(translation, rotation)
