@@ -3,8 +3,6 @@ control seat. What it sends goes through the console's shared `send` (one path f
 and only what its fields show: a field whose text is not a number (FieldError) sends nothing,
 previews nothing and draws no target."""
 
-import threading
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -16,14 +14,13 @@ from robot_sim.errors import UnknownNameError
 from robot_sim.task_frames import TaskFrames
 from web.checks import Check
 from web.defaults import ConsoleDefaults
+from web.desk_preview import DeskPreview
 from web.frames_view import FramesView
 from web.label_places import CONTEMPLATED
 from web.markers import TargetMarker
-from web.markup import Markup, add_html, show
+from web.markup import Markup, add_html
 from web.panel import Panel
-from web.panel_html import preview_html
 from web.preview import PreviewResult
-from web.preview_marks import PreviewMarks
 from web.seat import ControlSeat, operator_name
 from web.targets import Pose, displacement_to, ptwl_target
 from web.typed_number import FieldError
@@ -68,12 +65,6 @@ class Desk:
         self._seat = seat
         self._services = services
         self._syncing_gizmo = False
-        # The preview on show: the request it ran (to tell when the fields moved on) and its
-        # result, or a preview still computing; one at a time.
-        self._preview_of: dict[str, Any] | None = None
-        self._preview_gen = 0  # counts previews asked and clears: a late result is dropped
-        self._preview_shown: tuple[PreviewResult | None, str] = (None, "")
-        self._preview_lock = threading.Lock()
         self.panel = Panel(
             client.gui, catalog.defaults, catalog.stiffness_presets, catalog.dither_presets, catalog.tasks
         )
@@ -87,7 +78,7 @@ class Desk:
             distance_anchor="top-right",  # the commanded line's length is written bottom-left
         )
         self.gizmo = scene.add_transform_controls("/gizmo", scale=0.08, visible=False)
-        self.preview_marks = PreviewMarks(scene)
+        self.preview = DeskPreview(scene, self.panel.ptwl.preview_html, services.preview, self._typed_ptwl)
         self.frames_view = FramesView(scene)
         panel = self.panel
         edit_frame = services.edit_frame
@@ -152,7 +143,7 @@ class Desk:
         except FieldError as err:
             self.client.add_notification("Not sent: a field is marked in red", err.reason, color="red")
             return
-        self.clear_preview()
+        self.preview.clear()
         self._services.send(self, behavior, params)
 
     def _take_control(self) -> None:
@@ -181,37 +172,12 @@ class Desk:
         cancel.on_click(lambda _: modal.close())
 
     def _preview(self) -> None:
-        """Preview the PTWL as typed on its own thread (a busy twin takes seconds): "computing"
-        at once, then the result, marked stale if the fields moved on meanwhile."""
         try:
             request = self.params("ptwl")
         except FieldError as err:
-            self.show_preview(None, f"no preview: {err.reason}")
+            self.preview.show(None, f"no preview: {err.reason}")
             return
-        if not self._preview_lock.acquire(blocking=False):
-            return  # one at a time: the one computing says so
-        self._preview_gen += 1
-        generation = self._preview_gen
-        self._preview_shown = (None, "")
-        self.preview_marks.hide()
-        show(self.panel.ptwl.preview_html, preview_html(None, time.strftime("%H:%M:%S"), "computing"))
-
-        def run() -> None:
-            try:
-                self.preview_now(request, generation)
-            finally:
-                self._preview_lock.release()
-
-        threading.Thread(target=run, name="ptwl-preview", daemon=True).start()
-
-    def preview_now(self, request: dict[str, Any], generation: int | None = None) -> None:
-        """(the preview's thread, or a test) Run `request` and show how it ends, unless a send or
-        a new scene came since it was asked (`generation`): then it is of the past."""
-        result, note = self._services.preview(request)
-        if generation is not None and generation != self._preview_gen:
-            return
-        self._preview_of = request
-        self.show_preview(result, note)
+        self.preview.ask(request)
 
     def _add_typed_frame(self) -> None:
         try:
@@ -220,33 +186,6 @@ class Desk:
             self.client.add_notification("Frame not added: a field is marked in red", err.reason, color="red")
             return
         self._services.edit_frame(self, str(self.panel.frames.new_frame_name.value), pose)
-
-    def show_preview(self, result: PreviewResult | None, note: str = "") -> None:
-        """A preview's paths and exit in this browser only, with `note` (where it started from);
-        None: why there is none (`note`)."""
-        self._preview_shown = (result, note)
-        if result is None:
-            self.preview_marks.hide()
-        else:
-            self.preview_marks.show(result)
-        self._show_preview_line(computing_done=True)
-
-    def clear_preview(self) -> None:
-        """No preview on show: a command went out, or the scene was reset."""
-        self._preview_gen += 1  # a preview still computing is of what came before
-        self._preview_of = None
-        self.show_preview(None)
-
-    def _show_preview_line(self, computing_done: bool = False) -> None:
-        """The preview's line, stale once the PTWL as typed is not the one it ran (while one is
-        computing, its line says so until its result comes)."""
-        if self._preview_lock.locked() and not computing_done:
-            return
-        result, note = self._preview_shown
-        stale = result is not None and self._preview_of is not None and self._typed_ptwl() != self._preview_of
-        if stale:
-            self.preview_marks.hide()
-        show(self.panel.ptwl.preview_html, preview_html(result, note, "stale" if stale else ""))
 
     def _typed_ptwl(self) -> dict[str, Any] | None:
         try:
@@ -291,8 +230,7 @@ class Desk:
                 self.panel.show_check(behavior, self._services.check(behavior, params))
             if behavior == "ptwl":
                 self.update_contemplated(move_gizmo=True)
-                if self._preview_of is not None:
-                    self._show_preview_line()
+                self.preview.refresh()
 
     def fields_changed(self) -> None:
         with self.client.atomic():

@@ -74,7 +74,7 @@ class Desks:
         self.scene = scene
         for desk in self.all():
             desk.panel.show_scene_task(scene)
-            desk.clear_preview()  # of the scene before
+            desk.preview.clear()  # of the scene before
 
     def state_arrived(self) -> None:
         """The port moved: each desk's contemplated target moves with it."""
