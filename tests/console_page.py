@@ -4,6 +4,7 @@ The 3D scene is WebGL, which the DOM cannot see, so the console mirrors what it 
 status lines (data-* attributes and text), updated in the same batch as the scene; these read them.
 """
 
+import contextlib
 import io
 import re
 
@@ -47,7 +48,11 @@ def _ready(page, control: bool):  # type: ignore[no-untyped-def]
 
 
 def take_control(page) -> None:  # type: ignore[no-untyped-def]
+    """Take control; from another page that holds it, through the confirmation it asks for."""
     page.get_by_role("button", name="Take control").click()
+    confirm = page.get_by_role("button", name="Take control from them")
+    with contextlib.suppress(Exception):  # nobody held control: no confirmation was asked
+        confirm.click(timeout=1_000)
     page.wait_for_function("document.querySelector('#ptwl-control')?.dataset.mine === '1'", timeout=10_000)
 
 
@@ -105,12 +110,13 @@ def wait_text(page, text: str, timeout_s: float) -> None:  # type: ignore[no-unt
     )
 
 
-# The floating status window over the view: the rectangle from its tab's top to STOP's bottom.
+# The floating status window over the view: the rectangle of the first ancestor of the bar that
+# is positioned on its own (the window itself, tab header included).
 STATUS_WINDOW = """() => {
-  const bar = document.querySelector('#ptwl-bar').getBoundingClientRect();
-  const stop = [...document.querySelectorAll('button')].find(b => b.innerText.trim() === 'STOP');
-  const bottom = stop ? stop.getBoundingClientRect().bottom : bar.bottom;
-  return [bar.left - 16, bar.top - 48, bar.right + 16, bottom + 16];
+  let el = document.querySelector('#ptwl-bar');
+  while (el && !['absolute', 'fixed'].includes(getComputedStyle(el).position)) el = el.parentElement;
+  const r = (el || document.querySelector('#ptwl-bar')).getBoundingClientRect();
+  return [r.left, r.top, r.right, r.bottom];
 }"""
 
 

@@ -557,7 +557,7 @@ def test_the_twin_idles_on_a_short_link_and_runs_on_a_long_one(console: ConsoleA
             time.sleep(0.02)
         assert worker.idle is idle and (room.prediction is None) is idle
         assert ghost.port.visible is not idle
-        assert ("twin: idle while the round trip is under 0.25 s" in room.idle_note()) is idle
+        assert ("twin: idle below a 0.25 s round trip" in room.idle_note()) is idle
 
     settles(idle=True)
     try:

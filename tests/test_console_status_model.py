@@ -39,7 +39,7 @@ def test_a_confirmed_stop_ends_the_running_command_on_the_bar_even_if_its_end_ev
     console, _ = app
     with RobotClient(server.url) as robot:
         sent = robot.command("ptwl", translation=[0.0, 0.05, 0.0], duration=20.0, frame="base")
-        wait_until(lambda: f"#{sent.id}: running" in console.status.inputs().command)
+        wait_until(lambda: f"#…{sent.id % 10_000:04d}: running" in console.status.inputs().command)
         # From here the link loses every command event (the blackout of the issue).
         lost = console.log.history.event
         console.log.history.event = lambda message: (None, False)  # type: ignore[method-assign]
@@ -49,7 +49,7 @@ def test_a_confirmed_stop_ends_the_running_command_on_the_bar_even_if_its_end_ev
             line = console.status.inputs().command
         finally:
             console.log.history.event = lost  # type: ignore[method-assign]
-    assert f"PTWL #{sent.id}: aborted" in line and "running" not in line
+    assert f"PTWL #…{sent.id % 10_000:04d}: aborted" in line and "running" not in line
     assert f"aborted #{sent.id}" in console.commanding.stopper.state.text
 
 

@@ -22,7 +22,7 @@ from web.worker import Worker
 TICK_S = 0.08  # the bar's refresh period: 12.5 updates/s whether or not telemetry arrives
 LATE_AFTER_RTT_S = 1.0  # amber: state older than the round trip plus this
 STALE_AFTER_RTT_S = 5.0  # red: older than the round trip plus this, or the link is down
-BAR_WIDTH_PX = 500
+BAR_WIDTH_PX = 540
 PAGE_DEAD_AFTER_S = 2.5  # no bar update for this long: the console or the page's socket is gone
 # A page cannot tick when the console that feeds it is dead, so the page itself keeps time: every
 # update re-creates this banner, restarting its hidden CSS countdown; if updates stop, it appears.

@@ -35,9 +35,11 @@ class StatusRoom:
         history = self._log.history
         running = history.live()
         shown = running[0] if running else history.latest()
-        command = f"{shown.behavior.upper()} {shown.label}: {shown.status}" if shown else "no command yet"
-        if shown is not None and shown.sender:
-            command += f" (by {shown.sender})"
+        command = (
+            f"{shown.behavior.upper()} {shown.short_label}: {shown.status}" if shown else "no command yet"
+        )
+        if shown is not None and shown.sender:  # the operator; the history has the console too
+            command += f" (by {shown.sender.split(' at console')[0]})"
         if len(running) > 1:
             command += f" · {len(running) - 1} more queued"
         rtt = self._link.rtt_s()

@@ -23,5 +23,4 @@ class TwinRoom:
         """Why there is no prediction: the twin idles on a short link."""
         if not self.worker.idle:
             return ""
-        under = f"{self.worker.min_rtt_s:g} s"
-        return f"twin: idle while the round trip is under {under} (the picture is the present)"
+        return f"twin: idle below a {self.worker.min_rtt_s:g} s round trip (the picture is the present)"
