@@ -237,7 +237,7 @@ def test_ptwl_up_gives_up_on_a_child_that_keeps_dying() -> None:
     assert budget.allow(61.5)  # the first restart has left the window
 
 
-def test_a_fresh_console_behind_a_3_s_link_shows_send_within_4_s(browser) -> None:  # type: ignore[no-untyped-def]
+def test_a_fresh_console_behind_a_3_s_link_shows_send_before_the_robot_answers(browser) -> None:  # type: ignore[no-untyped-def]
     """On main it took 8.7 s (each of four start-up answers waited for the last), then 4.1-4.35 s
     (one round trip, then the panels); the panels no longer wait for the robot at all."""
     with (
@@ -254,5 +254,8 @@ def test_a_fresh_console_behind_a_3_s_link_shows_send_within_4_s(browser) -> Non
         page.wait_for_function("document.querySelector('#ptwl-telemetry')?.dataset.seq > 0", timeout=15_000)
         state_after = time.monotonic() - started
         page.close()
-    assert send_after < 4.0, send_after
+    # Send came before anything the robot sent could arrive: the panels did not wait for it. (The
+    # figure, 2-4 s on a quiet machine and up to 7 s on a busy one, is bench.console's:
+    # fresh_console_send_visible_s_at_3s_rtt; a wall-clock bound here failed under load.)
     assert state_after >= 1.5, state_after
+    assert send_after < state_after, (send_after, state_after)
