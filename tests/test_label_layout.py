@@ -7,11 +7,13 @@ import itertools
 
 import numpy as np
 import pytest
+import viser
 import viser.transforms as tf
 
 from robot_sim.sim import Simulation
+from web.ghost import GhostView
 from web.label_places import ATTRACTOR, COMMANDED, CONTEMPLATED, GHOST, PORT, LabelPlace
-from web.robot_view import INITIAL_CAMERA
+from web.robot_view import INITIAL_CAMERA, RobotView
 
 VIEW_W_PX, VIEW_H_PX = 1366 - 400, 768  # the 3D view beside the docked control panel
 FOV_Y_RAD = np.radians(75.0)  # viser's default
@@ -83,3 +85,29 @@ def test_with_a_move_pending_the_targets_labels_are_apart_from_the_ports(port, m
         "predicted": box(COMMANDED, target, q, "commanded: relative to port at start"),
     }
     assert overlapping(boxes) == []
+
+
+def test_the_views_place_their_labels_as_the_table_says() -> None:
+    """The layout above is the one drawn: each view takes its label's place from the table."""
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        view, ghost = RobotView(server, 0.001), GhostView(server)
+        contemplated = TargetMarker(
+            server.scene, "contemplated", "contemplated", (250, 204, 21), CONTEMPLATED
+        )
+        drawn = {
+            "ghost": ghost.label,
+            "commanded": view.commanded.label,
+            "predicted": view.predicted.label,
+        }
+        places = {
+            "ghost": GHOST,
+            "commanded": COMMANDED,
+            "predicted": COMMANDED,
+            "contemplated": CONTEMPLATED,
+        }
+        for name, handle in drawn.items():
+            place = places[name]
+            assert tuple(handle.position) == place.offset_m and handle.anchor == place.anchor, name
+    finally:
+        server.stop()

@@ -9,6 +9,7 @@ import trimesh
 import viser
 
 from server.models import GeometryModel
+from web.label_places import GHOST
 from web.meshes import body_parts
 from web.sent_values import SentValues
 from web.twin import Prediction
@@ -29,7 +30,7 @@ class GhostView:
             "/twin_port", axes_length=0.05, axes_radius=0.003, origin_radius=0.005, visible=False
         )
         self.label = scene.add_label(
-            "/twin_port/label", "predicted", position=(0.0, 0.0, -0.03), anchor="top-right"
+            "/twin_port/label", "predicted", position=GHOST.offset_m, anchor=GHOST.anchor
         )
 
     def load(self, geometry: GeometryModel) -> None:
