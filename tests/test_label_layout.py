@@ -92,9 +92,6 @@ def test_the_views_place_their_labels_as_the_table_says() -> None:
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     try:
         view, ghost = RobotView(server, 0.001), GhostView(server)
-        contemplated = TargetMarker(
-            server.scene, "contemplated", "contemplated", (250, 204, 21), CONTEMPLATED
-        )
         drawn = {
             "ghost": ghost.label,
             "commanded": view.commanded.label,
