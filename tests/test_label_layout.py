@@ -80,7 +80,7 @@ def test_with_a_move_pending_the_targets_labels_are_apart_from_the_ports(port, m
     boxes = {
         "port": box(PORT, p, q, "port"),
         "attractor": box(ATTRACTOR, p, q, "attractor"),
-        "ghost": box(GHOST, p, q, "predicted · UNSURE: not judged yet"),
+        "ghost": box(GHOST, p, q, "predicted · UNSURE (the status bar says why)"),
         "contemplated": box(CONTEMPLATED, target, q, "contemplated"),
         "predicted": box(COMMANDED, target, q, "commanded: relative to port at start"),
     }

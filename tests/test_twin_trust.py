@@ -7,7 +7,7 @@ import pytest
 from robot_sim.sim import Simulation
 from robot_sim.telemetry import state_fields
 from web.twin import GroundTwin
-from web.twin_trust import JUDGED_WITHIN_S, LAG_LIMIT_S, judge_twin, twin_readout
+from web.twin_trust import JUDGED_WITHIN_S, LAG_LIMIT_S, TwinTrust, ghost_label, judge_twin, twin_readout
 
 
 def test_the_ghost_is_sure_only_when_fresh_judged_and_no_stop_is_pending() -> None:
@@ -73,3 +73,13 @@ def test_a_twin_that_stopped_advancing_says_how_far_behind_it_is() -> None:
     trust, readout = twin_readout(wall + 0.9, twin)  # nothing advanced it for 0.9 s
     assert not trust.sure and readout.startswith("UNSURE: 0.9 s behind (the machine is busy)")
     assert pytest.approx(wall) == twin.advanced_wall
+
+
+def test_the_ghosts_own_label_is_short_and_says_unsure() -> None:
+    """It floats in the view (a long reason ran under the control panel); the bar says why."""
+    assert (
+        ghost_label(TwinTrust(True), "off 0.3 mm (max 0.9 over 5 s)")
+        == "predicted · off 0.3 mm (max 0.9 over 5 s)"
+    )
+    unsure = ghost_label(TwinTrust(False, "STOP sent 2.8 s ago"), "UNSURE: STOP sent 2.8 s ago")
+    assert unsure == "predicted · UNSURE (the status bar says why)"

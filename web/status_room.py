@@ -12,7 +12,7 @@ from web.scene_keeper import SceneKeeper
 from web.seat import ControlSeat, operator_name
 from web.status_bar import BarInputs, Level
 from web.twin_room import TwinRoom
-from web.twin_trust import twin_readout
+from web.twin_trust import TwinTrust, ghost_label, twin_readout
 
 
 class StatusRoom:
@@ -69,7 +69,7 @@ class StatusRoom:
         """(the bar's thread) The ghost's label from the same readout: the twin's own thread
         cannot say it lags while it lags."""
         if self._twin is not None and inputs.predicted_port is not None:
-            self._twin.ghost.set_label(f"predicted · {inputs.twin_readout}")
+            self._twin.ghost.set_label(ghost_label(TwinTrust(inputs.twin_sure), inputs.twin_readout))
 
     def on_level(self, level: Level) -> None:
         silent_s = self._link.health.silent_s(time.time())

@@ -44,6 +44,11 @@ def judge_twin(
     return TwinTrust(True)
 
 
+def ghost_label(trust: TwinTrust, readout: str) -> str:
+    """The ghost's own label, short (it floats in the view; the bar's twin line says why)."""
+    return f"predicted · {readout}" if trust.sure else "predicted · UNSURE (the status bar says why)"
+
+
 def twin_readout(now_wall: float, twin: GroundTwin) -> tuple[TwinTrust, str]:
     """The twin's trust now and its readout: how far off its judged predictions were, or why it
     cannot be believed now (with the last judgment, if any)."""

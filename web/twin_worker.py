@@ -12,6 +12,7 @@ import viser
 
 from web.ghost import GhostView
 from web.twin import GroundTwin, Prediction
+from web.twin_trust import ghost_label as label_for
 from web.twin_trust import twin_readout
 from web.worker import Worker
 
@@ -21,7 +22,7 @@ TICK_S = 0.02
 def ghost_label(twin: GroundTwin, now_wall: float) -> str:
     """The ghost's label: how far its predictions of the port were off when telemetry showed
     them, or why it cannot be believed now."""
-    return f"predicted · {twin_readout(now_wall, twin)[1]}"
+    return label_for(*twin_readout(now_wall, twin))
 
 
 class TwinWorker(Worker):
