@@ -675,3 +675,21 @@ def test_the_history_keeps_at_most_max_views_and_its_counts_cover_everything() -
     assert (counts["rwe"], counts["dither"]) == ((n + 1) // 3, n // 3)
     assert counts["peak_force"] == 99.0  # from a command long folded away
     assert history.recent(1)[0].id == n - 1
+
+
+def test_a_desk_whose_browser_has_gone_is_forgotten_and_the_others_are_still_told(
+    console: ConsoleApp,
+) -> None:
+    """Seen in a full run: a browser left while a new scene was drawn; its handles were removed
+    before its disconnect came, and the scene thread died on the first of them (the desks after
+    it were never told)."""
+    wait_for_state(console)
+    with viser_client(console) as gone, viser_client(console) as staying:
+        gone.preview.marks.attractor.remove()  # viser removed this browser's handles
+        told: list[str] = []
+        original = staying.panel.show_scene_task
+        staying.panel.show_scene_task = lambda scene: (told.append(scene), original(scene))  # type: ignore[method-assign]
+        console.desks.scene_drawn("free_space")
+        desks = console.desks.all()
+    assert told == ["free_space"]
+    assert gone not in desks and staying in desks

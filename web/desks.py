@@ -3,6 +3,7 @@ watched), gone when it leaves; told when control changes hands, the frames chang
 is drawn; moved with each state."""
 
 import threading
+from collections.abc import Callable
 from typing import Any
 
 import viser
@@ -54,8 +55,18 @@ class Desks:
         with self._lock:
             return list(self._desks.values())
 
-    def _seat_changed(self, previous: int | None, new: int | None) -> None:
+    def _each(self, tell: Callable[[Desk], None]) -> None:
+        """Tell every desk; one whose browser has just gone (viser removed its handles before
+        its disconnect callback came) is forgotten, and the others are still told."""
         for desk in self.all():
+            try:
+                tell(desk)
+            except RuntimeError:  # "Cannot assign to ... on a removed ...Handle"
+                with self._lock:
+                    self._desks.pop(desk.client_id, None)
+
+    def _seat_changed(self, previous: int | None, new: int | None) -> None:
+        def tell(desk: Desk) -> None:
             desk.seat_changed()
             if desk.client_id == previous and new is not None:
                 desk.client.add_notification(
@@ -64,19 +75,21 @@ class Desks:
                     color="orange",
                 )
 
+        self._each(tell)
+
     def frames_changed(self, frames: list[dict[str, Any]], _: TaskFrames) -> None:
-        if self.closed:
-            return
-        for desk in self.all():
-            desk.show_frames(frames)
+        if not self.closed:
+            self._each(lambda desk: desk.show_frames(frames))
 
     def scene_drawn(self, scene: str) -> None:
         self.scene = scene
-        for desk in self.all():
+
+        def tell(desk: Desk) -> None:
             desk.panel.show_scene_task(scene)
             desk.preview.clear()  # of the scene before
 
+        self._each(tell)
+
     def state_arrived(self) -> None:
         """The port moved: each desk's contemplated target moves with it."""
-        for desk in self.all():
-            desk.update_contemplated()
+        self._each(lambda desk: desk.update_contemplated())
