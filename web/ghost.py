@@ -63,8 +63,9 @@ class GhostView:
                     )
                 )
 
-    def show(self, prediction: Prediction, error_text: str) -> None:
-        """Move the ghost to a prediction (call inside server.atomic()); only what moved is sent."""
+    def show(self, prediction: Prediction) -> None:
+        """Move the ghost to a prediction (call inside server.atomic()); only what moved is sent.
+        Its label is the status bar's to set (web/status_room.py), from the bar's one readout."""
         with self._lock:
             for name, pose in prediction.bodies.items():
                 frame = self._bodies.get(name)
@@ -72,11 +73,10 @@ class GhostView:
                     self._place(name, frame, np.asarray(pose, dtype=float))
             position, wxyz = prediction.port
             self._place("/twin_port", self.port, np.concatenate([position, wxyz]))
-        self.set_label(error_text)
 
     def set_label(self, text: str) -> None:
-        """Say how far to trust the ghost: from the twin's thread as it moves the ghost, and from
-        the status bar's when that thread lags (then it cannot say so itself)."""
+        """Say how far to trust the ghost (the bar's thread, each tick: the twin's own thread
+        could not say it lags while it lags)."""
         with self._lock:
             if self.label.text != text:
                 self.label.text = text

@@ -66,8 +66,8 @@ class StatusRoom:
         )
 
     def on_tick(self, inputs: BarInputs) -> None:
-        """(the bar's thread) The ghost's label from the same readout: the twin's own thread
-        cannot say it lags while it lags."""
+        """(the bar's thread) The ghost's label, from the bar's own readout: drawn here only, so
+        the twin's 50 Hz thread does no second judging, and a lagging twin is still labelled."""
         if self._twin is not None and inputs.predicted_port is not None:
             self._twin.ghost.set_label(ghost_label(TwinTrust(inputs.twin_sure), inputs.twin_readout))
 

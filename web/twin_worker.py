@@ -12,17 +12,9 @@ import viser
 
 from web.ghost import GhostView
 from web.twin import GroundTwin, Prediction
-from web.twin_trust import ghost_label as label_for
-from web.twin_trust import twin_readout
 from web.worker import Worker
 
 TICK_S = 0.02
-
-
-def ghost_label(twin: GroundTwin, now_wall: float) -> str:
-    """The ghost's label: how far its predictions of the port were off when telemetry showed
-    them, or why it cannot be believed now."""
-    return label_for(*twin_readout(now_wall, twin))
 
 
 class TwinWorker(Worker):
@@ -60,5 +52,5 @@ class TwinWorker(Worker):
             if prediction is None:
                 continue
             with self._server.atomic():
-                self._ghost.show(prediction, ghost_label(self._twin, time.time()))
+                self._ghost.show(prediction)
             self._on_prediction(prediction)
