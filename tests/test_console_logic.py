@@ -531,7 +531,7 @@ def test_the_monitor_box_asks_for_the_force_task_monitor(console: ConsoleApp) ->
     with viser_client(console) as desk:
         panel = desk.panel
         assert "monitor" not in panel.ptwl.params() and "monitor" not in panel.dither.params()
-        panel.ptwl.monitor.value = True
+        panel.ptwl.settings.monitor.value = True
         panel.dither.monitor.value = True
         for behavior in ("ptwl", "dither"):
             params = panel.params(behavior)
@@ -627,10 +627,10 @@ def test_preview_says_how_a_move_ends_and_step_sends_its_first_part(
         console.seat.take(desk.client_id)
         desk.panel.ptwl.frame.value = "base"
         desk.panel.ptwl.translation.value = (0.0, 40.0, 20.0)
-        desk.panel.ptwl.duration.value = 10.0
+        desk.panel.ptwl.typed["duration"].value = 10.0
         sent_before = len(robot.commands(limit=1000))
         desk.preview.now(desk.params("ptwl"))
-        shown = desk.panel.ptwl.preview_html.content
+        shown = desk.panel.ptwl.step.preview_html.content
         assert 'data-exit="goal_reached"' in shown and len(robot.commands(limit=1000)) == sent_before
         assert "from the latest telemetry" in shown  # a zero-delay link: the twin idles
         compute_s = float(shown.split('data-compute-s="')[1].split('"')[0])

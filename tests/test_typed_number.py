@@ -147,9 +147,9 @@ def check_line(panel: Panel, behavior: str = "ptwl") -> str:
 def test_what_is_sent_is_the_typed_number_times_its_unit(panel: Panel) -> None:
     type_into(panel.ptwl.translation, "15", "-2.5e1", "0.5")
     type_into(panel.ptwl.rotation, "90", "0", "-45")
-    type_into(panel.ptwl.position_tolerance, "2")
-    type_into(panel.ptwl.orientation_tolerance, "1.5")
-    type_into(panel.ptwl.duration, "3")
+    type_into(panel.ptwl.typed["position_tolerance"], "2")
+    type_into(panel.ptwl.typed["orientation_tolerance"], "1.5")
+    type_into(panel.ptwl.typed["duration"], "3")
     params = panel.ptwl.params()
     assert params["translation"] == [15 / 1000, -25 / 1000, 0.5 / 1000]
     assert params["rotation"] == pytest.approx([math.pi / 2, 0.0, -math.pi / 4], abs=1e-15)
@@ -175,7 +175,8 @@ def test_a_field_that_is_not_a_number_makes_no_request_and_sends_nothing(panel: 
     recheck(panel)
     assert panel.ptwl.translation.reason.startswith("x: ")
     assert panel.ptwl.translation.reason_line.visible
-    assert panel.ptwl.send.disabled and panel.ptwl.send_step.disabled and panel.ptwl.preview.disabled
+    step = panel.ptwl.step
+    assert panel.ptwl.send.disabled and step.send_step.disabled and step.preview.disabled
     line = check_line(panel)
     assert "within the robot" not in line and 'data-valid="0"' in line
     assert "Translation [mm]: x: " in line
@@ -197,7 +198,7 @@ def test_a_translation_out_of_range_is_refused_at_the_field_in_mm(
     recheck(panel)
     assert panel.ptwl.translation.reason == said
     assert f"translation: {said}" in check_line(panel)  # not "<= 1 m, got 5"
-    assert panel.ptwl.send.disabled and panel.ptwl.preview.disabled
+    assert panel.ptwl.send.disabled and panel.ptwl.step.preview.disabled
     with pytest.raises(FieldError):
         panel.ptwl.values()  # no target drawn for a move that will not be sent
     type_into(panel.ptwl.translation, "2.5e1", "0", "0")  # a new text is judged anew
@@ -209,10 +210,10 @@ def test_a_translation_out_of_range_is_refused_at_the_field_in_mm(
 
 def test_a_negative_duration_is_refused_at_the_duration_field_in_seconds(panel: Panel) -> None:
     type_into(panel.ptwl.translation, "0", "0", "70")
-    type_into(panel.ptwl.duration, "-5")
+    type_into(panel.ptwl.typed["duration"], "-5")
     assert panel.ptwl.params()["duration"] == -5.0  # not 0.01 s
     recheck(panel)
-    assert panel.ptwl.duration.reason == "must be in (0, 600] s, got -5 s"
+    assert panel.ptwl.typed["duration"].reason == "must be in (0, 600] s, got -5 s"
     assert panel.ptwl.translation.reason == ""
     assert panel.ptwl.send.disabled
     assert "m/s" not in check_line(panel)  # no impact speed from a duration nobody typed
@@ -220,26 +221,27 @@ def test_a_negative_duration_is_refused_at_the_duration_field_in_seconds(panel: 
 
 def test_the_watchdog_is_written_as_the_robot_applies_it(panel: Panel) -> None:
     type_into(panel.ptwl.translation, "0", "0", "5")
-    type_into(panel.ptwl.duration, "9")
+    type_into(panel.ptwl.typed["duration"], "9")
     recheck(panel)
-    assert panel.ptwl.watchdog.texts == ("14",) and panel.ptwl.watchdog.disabled
-    type_into(panel.ptwl.duration, "abc")  # the auto watchdog is not read, nor rewritten
+    assert panel.ptwl.settings.watchdog.texts == ("14",) and panel.ptwl.settings.watchdog.disabled
+    type_into(panel.ptwl.typed["duration"], "abc")  # the auto watchdog is not read, nor rewritten
     recheck(panel)
-    assert panel.ptwl.watchdog.texts == ("14",) and panel.ptwl.watchdog.reason_line.visible is False
-    assert panel.ptwl.duration.reason == NOT_A_NUMBER
+    watchdog = panel.ptwl.settings.watchdog
+    assert watchdog.texts == ("14",) and watchdog.reason_line.visible is False
+    assert panel.ptwl.typed["duration"].reason == NOT_A_NUMBER
 
 
 def test_a_rule_across_fields_is_said_at_the_field_it_names(panel: Panel) -> None:
     """The translational radius cap is a model rule (`body`), named for its field."""
     panel.dither.mode.value = "translational"
-    type_into(panel.dither.amplitude, "30")
+    type_into(panel.dither.typed["amplitude"], "30")
     recheck(panel, "dither")
     said = "amplitude must be in (0, 20] mm for translational mode, got 30 mm"
-    assert panel.dither.amplitude.reason == said
+    assert panel.dither.typed["amplitude"].reason == said
     assert panel.dither.send.disabled
-    type_into(panel.dither.amplitude, "15")
+    type_into(panel.dither.typed["amplitude"], "15")
     recheck(panel, "dither")
-    assert panel.dither.amplitude.reason == "" and not panel.dither.send.disabled
+    assert panel.dither.typed["amplitude"].reason == "" and not panel.dither.send.disabled
     assert panel.dither.params()["amplitude"] == 15 / 1000
 
 
@@ -250,7 +252,7 @@ def test_values_set_by_the_console_are_written_as_text_and_read_back_alike(panel
     assert panel.ptwl.params()["translation"] == [12.35 / 1000, -30 / 1000, 0.0]
     preset = panel.dither.presets[str(panel.dither.preset.value)]
     panel.dither.fill_fields()
-    assert panel.dither.travel.value == pytest.approx(preset["travel"] * 1000)
+    assert panel.dither.typed["travel"].value == pytest.approx(preset["travel"] * 1000)
     assert panel.dither.params()["duration"] == preset["duration"]
     with pytest.raises(ValueError):
         panel.ptwl.translation.value = (1.0, 2.0)
@@ -259,13 +261,13 @@ def test_values_set_by_the_console_are_written_as_text_and_read_back_alike(panel
 def test_a_step_outside_the_move_is_refused_and_send_step_is_off(panel: Panel) -> None:
     type_into(panel.ptwl.translation, "0", "0", "5")
     recheck(panel)
-    type_into(panel.ptwl.step_percent, "150")
-    assert panel.ptwl.step_percent.reason == "must be in (0, 100] %, got 150 %"
-    assert panel.ptwl.send_step.disabled and not panel.ptwl.send.disabled
+    type_into(panel.ptwl.step.step_percent, "150")
+    assert panel.ptwl.step.step_percent.reason == "must be in (0, 100] %, got 150 %"
+    assert panel.ptwl.step.send_step.disabled and not panel.ptwl.send.disabled
     with pytest.raises(FieldError):
         panel.ptwl.step_params()
-    type_into(panel.ptwl.step_percent, "5e1")
-    assert not panel.ptwl.send_step.disabled
+    type_into(panel.ptwl.step.step_percent, "5e1")
+    assert not panel.ptwl.step.send_step.disabled
     assert panel.ptwl.step_params()["translation"] == [0.0, 0.0, 0.5 * 5 / 1000]
 
 

@@ -34,7 +34,6 @@ from web.robot_link import RobotLink
 from web.robot_view import INITIAL_CAMERA, RobotView
 from web.scene_keeper import SceneKeeper
 from web.seat import ControlSeat
-from web.status_bar import StatusBar
 from web.status_room import StatusRoom
 from web.twin_room import TwinRoom
 
@@ -56,8 +55,7 @@ class ConsoleApp:
         self.server = viser.ViserServer(host="127.0.0.1", port=0, label="ptwl console", verbose=False)
         self.front_door = FrontDoor(host, port, self.server.get_port(), allow_origins)
         admit_only_through(self.front_door, self.server)
-        self._host = host
-        self._front_port = self.front_door.start()
+        self.front_door.start()
         self.server.initial_camera.position, self.server.initial_camera.look_at = INITIAL_CAMERA
         self.server.gui.configure_theme(control_width="large", dark_mode=False)
         self.seat = ControlSeat()
@@ -71,7 +69,7 @@ class ConsoleApp:
         self.log = CommandLog(self.link.client, self.board, self.view, self.notifier)
         self.frames = KnownFrames(self._frames_changed)
         self.commanding = Commanding(
-            self.link, self.frames, self.log, self.seat, self.defaults, self.notifier, self.console_name
+            self.link, self.frames, self.log, self.seat, self.defaults, self.notifier, self.front_door.address
         )
         self.desks = Desks(self.catalog, self.defaults, self.seat, self.commanding, self.frames)
         self.scene = SceneKeeper(
@@ -89,19 +87,12 @@ class ConsoleApp:
             self.twin_room = TwinRoom(self.server, self.link, self.defaults.twin_min_rtt_s)
             self.commanding.twin = self.twin_room.twin
             self.scene.ghost = self.twin_room.ghost
-        self.status = StatusRoom(
-            self.link, self.log, self.commanding, self.seat, self.scene, self.twin_room, self.view
-        )
-        self.bar = StatusBar(self.server.gui, self.status.inputs, self.status.on_level, self.status.on_tick)
+        rooms = (self.link, self.log, self.commanding, self.seat, self.scene, self.twin_room, self.view)
+        self.status = StatusRoom(self.server.gui, *rooms)
 
     @property
     def url(self) -> str:
-        shown = f"[{self._host}]" if ":" in self._host else self._host
-        return f"http://{shown}:{self._front_port}"
-
-    @property
-    def console_name(self) -> str:
-        return f"{self._host}:{self._front_port}"
+        return f"http://{self.front_door.address}"
 
     # ---------------------------------------------------------------- start
     def connect(self, timeout: float | None = None) -> None:
@@ -119,9 +110,9 @@ class ConsoleApp:
                 self.log.replay_jumped,
                 self.board.plots,
             )
-            self.bar.stop.visible = False  # nothing moves on a recording
+            self.status.bar.stop.visible = False  # nothing moves on a recording
             self.status.recording = str(replay["file"]).rsplit("/", 1)[-1]
-        self.bar.stop.on_click(lambda event: self.commanding.stop(event.client))
+        self.status.bar.stop.on_click(lambda event: self.commanding.stop(event.client))
         self.board.reset_scene.on_click(lambda _: self.scene.reset())
         if self.playback is None:  # a replay is watched, not commanded: no form to send from
             self.server.on_client_connect(self.desks.connected)
@@ -138,7 +129,7 @@ class ConsoleApp:
         )
         if self.twin_room is not None:
             self.twin_room.worker.start()
-        self.bar.start()
+        self.status.bar.start()
         if self.playback is not None:
             self.playback.start()
         handshake = self.link.handshake
@@ -180,7 +171,7 @@ class ConsoleApp:
     # ----------------------------------------------------------------- end
     def threads_running(self) -> list[str]:
         """The console's own threads still alive (all stop in close())."""
-        parts = [*self.link.threads(), ("status bar", self.bar)]
+        parts = [*self.link.threads(), ("status bar", self.status.bar)]
         if self.twin_room is not None:
             parts.append(("twin", self.twin_room.worker))
         return [name for name, part in parts if part is not None and part.running]
@@ -189,7 +180,7 @@ class ConsoleApp:
         self._closed = self.log.closed = self.scene.closed = self.desks.closed = True
         self.link.close()
         for part in (
-            self.bar,
+            self.status.bar,
             self.playback,
             self.twin_room.worker if self.twin_room is not None else None,
             self.commanding.stopper,

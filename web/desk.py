@@ -78,7 +78,8 @@ class Desk:
             distance_anchor="top-right",  # the commanded line's length is written bottom-left
         )
         self.gizmo = scene.add_transform_controls("/gizmo", scale=0.08, visible=False)
-        self.preview = DeskPreview(scene, self.panel.ptwl.preview_html, services.preview, self._typed_ptwl)
+        preview_line = self.panel.ptwl.step.preview_html
+        self.preview = DeskPreview(scene, preview_line, services.preview, self._typed_ptwl)
         self.frames_view = FramesView(scene)
         panel = self.panel
         edit_frame = services.edit_frame
@@ -97,8 +98,8 @@ class Desk:
         panel.take_control.on_click(lambda _: self._take_control())
         for behavior, button in panel.sends.items():
             button.on_click(self._sender(behavior))
-        panel.ptwl.send_step.on_click(lambda _: self._send_typed("ptwl", panel.ptwl.step_params))
-        panel.ptwl.preview.on_click(lambda _: self._preview())
+        panel.ptwl.step.send_step.on_click(lambda _: self._send_typed("ptwl", panel.ptwl.step_params))
+        panel.ptwl.step.preview.on_click(lambda _: self._preview())
         for behavior, form in panel.forms.items():  # Enter in one of the tab's fields
             form.on_submit(self._key_sender(behavior))
         # The target follows the PTWL's fields through its check (recheck), which first says

@@ -7,8 +7,9 @@ import viser
 
 from web.markup import add_html
 from web.panel_html import check_html
-from web.ptwl_tab import BUILT_IN_FRAMES, FRAME_HINT, MONITOR_HINT
-from web.request_tab import RequestTab, set_value
+from web.ptwl_settings import BUILT_IN_FRAMES, MONITOR_HINT
+from web.ptwl_tab import FRAME_HINT
+from web.request_tab import RequestTab, Typed, set_value
 from web.typed_number import (
     DEG,
     HERTZ,
@@ -41,32 +42,22 @@ class DitherTab(RequestTab):
         )
         self.mode = gui.add_dropdown("Mode", ("torsional", "translational"))
         self.direction = gui.add_dropdown("Direction", ("push", "pull"))
-        self.axis = TypedVector(gui, "dither-axis", "Axis", (0.0, 0.0, 1.0), PLAIN)
+        # The number fields by the API's name: a preset fills each, params() sends each.
+        axis = TypedVector(gui, "dither-axis", "Axis", (0.0, 0.0, 1.0), PLAIN)
+        self.typed: dict[str, Typed] = {"axis": axis}
         self.frame = gui.add_dropdown("Axis frame", BUILT_IN_FRAMES, initial_value="tool", hint=FRAME_HINT)
-        self.amplitude = TypedNumber(
-            gui, "dither-amplitude", AMPLITUDE_LABELS["torsional"], 1.0, AMPLITUDE_UNITS["torsional"]
-        )
-        self.frequency = TypedNumber(gui, "dither-frequency", "Frequency [Hz]", 1.0, HERTZ)
-        self.travel = TypedNumber(gui, "dither-travel", "Travel [mm]", 10.0, MM)
-        self.duration = TypedNumber(gui, "dither-duration", "Dither duration [s]", 5.0, SECONDS)
-        self.force_threshold = TypedNumber(
-            gui, "dither-force-threshold", "Dither force limit [N]", 30.0, NEWTONS
-        )
-        self.torque_threshold = TypedNumber(
-            gui, "dither-torque-threshold", "Dither torque limit [N m]", 3.0, NEWTON_METRES
-        )
+        for name, label, initial, unit in (
+            ("amplitude", AMPLITUDE_LABELS["torsional"], 1.0, AMPLITUDE_UNITS["torsional"]),
+            ("frequency", "Frequency [Hz]", 1.0, HERTZ),
+            ("travel", "Travel [mm]", 10.0, MM),
+            ("duration", "Dither duration [s]", 5.0, SECONDS),
+            ("force_threshold", "Dither force limit [N]", 30.0, NEWTONS),
+            ("torque_threshold", "Dither torque limit [N m]", 3.0, NEWTON_METRES),
+        ):
+            self.typed[name] = TypedNumber(gui, "dither-" + name.replace("_", "-"), label, initial, unit)
         self.monitor = gui.add_checkbox("Dither force task monitor", False, hint=MONITOR_HINT)
         self.check_line = add_html(gui, check_html("dither", "", []))
         self.send = gui.add_button("Send dither", color="blue", disabled=True)
-        self.typed = {
-            "axis": self.axis,
-            "amplitude": self.amplitude,
-            "frequency": self.frequency,
-            "travel": self.travel,
-            "duration": self.duration,
-            "force_threshold": self.force_threshold,
-            "torque_threshold": self.torque_threshold,
-        }
         self.inputs = [self.preset, self.mode, self.direction, self.frame, self.monitor, *self.typed.values()]
         self.preset.on_update(lambda _: self.fill_fields())
         self.mode.on_update(lambda _: self._label_amplitude())
@@ -74,7 +65,9 @@ class DitherTab(RequestTab):
 
     def _label_amplitude(self) -> None:
         mode = str(self.mode.value)
-        self.amplitude.relabel(AMPLITUDE_LABELS[mode], AMPLITUDE_UNITS[mode])
+        amplitude = self.typed["amplitude"]
+        assert isinstance(amplitude, TypedNumber)
+        amplitude.relabel(AMPLITUDE_LABELS[mode], AMPLITUDE_UNITS[mode])
 
     def fill_fields(self) -> None:
         """Every field of the chosen preset, in the units of its mode."""
@@ -82,13 +75,11 @@ class DitherTab(RequestTab):
         set_value(self.mode, p["mode"])
         set_value(self.direction, p["direction"])
         self._label_amplitude()
-        self.axis.value = [float(v) for v in p["axis"]]
-        self.amplitude.value = p["amplitude"] * self.amplitude.unit.per_si
-        self.frequency.value = p["frequency"]
-        self.travel.value = p["travel"] * MM.per_si
-        self.duration.value = p["duration"]
-        self.force_threshold.value = p["force_threshold"]
-        self.torque_threshold.value = p["torque_threshold"]
+        for name, typed in self.typed.items():
+            if isinstance(typed, TypedVector):
+                typed.value = [float(v) * typed.unit.per_si for v in p[name]]
+            else:
+                typed.value = p[name] * typed.unit.per_si
 
     def params(self) -> dict[str, Any]:
         """Every field explicit (the preset's name is not sent: what is shown is what runs);
@@ -96,13 +87,7 @@ class DitherTab(RequestTab):
         return {
             "mode": str(self.mode.value),
             "direction": str(self.direction.value),
-            "axis": self.axis.si,
             "frame": str(self.frame.value),
-            "amplitude": self.amplitude.si,
-            "frequency": self.frequency.si,
-            "travel": self.travel.si,
-            "duration": self.duration.si,
-            "force_threshold": self.force_threshold.si,
-            "torque_threshold": self.torque_threshold.si,
+            **{name: typed.si for name, typed in self.typed.items()},
             **({"monitor": {}} if self.monitor.value else {}),
         }

@@ -114,6 +114,7 @@ class FrontDoor:
         self._allow_origins = allow_origins
         self.secret = secrets.token_urlsafe(24)
         self.policy: AccessPolicy | None = None
+        self.port_bound: int | None = None
         self._loop = asyncio.new_event_loop()
         self._server: asyncio.Server | None = None
         self._thread = threading.Thread(target=self._loop.run_forever, name="ptwl-front-door", daemon=True)
@@ -122,9 +123,15 @@ class FrontDoor:
         """Bind and serve; the port actually bound."""
         self._thread.start()
         self._server = asyncio.run_coroutine_threadsafe(self._bind(), self._loop).result(timeout=10.0)
-        port = int(self._server.sockets[0].getsockname()[1])
+        port = self.port_bound = int(self._server.sockets[0].getsockname()[1])
         self.policy = AccessPolicy(self._host, port, None, (), self._allow_origins)
         return port
+
+    @property
+    def address(self) -> str:
+        """host:port as a URL writes it (an IPv6 host in brackets); after start()."""
+        shown = f"[{self._host}]" if ":" in self._host else self._host
+        return f"{shown}:{self.port_bound}"
 
     async def _bind(self) -> asyncio.Server:
         return await asyncio.start_server(self._handle, self._host, self._port, reuse_address=True)

@@ -19,7 +19,8 @@ from web.dither_tab import DitherTab
 from web.frames_tab import FramesTab
 from web.markup import Markup, add_html, show
 from web.panel_html import check_html, control_html, field_named, gains_html
-from web.ptwl_tab import BUILT_IN_FRAMES, PRESET_FRAME, PtwlTab
+from web.ptwl_settings import BUILT_IN_FRAMES, PRESET_FRAME
+from web.ptwl_tab import PtwlTab
 from web.request_tab import RequestTab, Typed
 from web.small_tabs import GripperTab, RweTab, TaskTab
 
@@ -72,7 +73,7 @@ class Panel:
             tab.behavior: tab for tab in (self.ptwl, self.rwe, self.dither, self.tasks, self.gripper)
         }
         self._valid = dict.fromkeys(self._requests, True)
-        self.ptwl.step_percent.on_update(lambda _: self.refresh_buttons())
+        self.ptwl.step.step_percent.on_update(lambda _: self.refresh_buttons())
         for typed in (self.frames.new_frame_position, self.frames.new_frame_rotation):
             typed.on_update(lambda _: self._typed_pose_changed())
 
@@ -120,9 +121,8 @@ class Panel:
         self._valid[behavior] = not errors
         self._show_reasons(tab)
         show(tab.check_line, check_html(behavior, errors, check.warnings))
-        watchdog_s = getattr(check.params, "watchdog", None)
-        if behavior == "ptwl" and watchdog_s is not None and self.ptwl.watchdog_auto.value:
-            self.ptwl.watchdog.value = round(watchdog_s, 3)
+        if behavior == "ptwl":
+            self.ptwl.settings.follow_duration(getattr(check.params, "watchdog", None))
         self.refresh_buttons()
 
     def show_unreadable(self, behavior: str) -> None:
@@ -142,7 +142,7 @@ class Panel:
         in_use: dict[str, Typed] = tab.in_use()
         for typed in tab.typed.values():
             typed.show(active=typed in in_use.values())
-        self.ptwl.watchdog.disabled = bool(self.ptwl.watchdog_auto.value)
+        self.ptwl.settings.follow_duration(None)
 
     def _typed_pose_changed(self) -> None:
         self.frames.typed_pose_changed()
@@ -151,10 +151,7 @@ class Panel:
     def refresh_buttons(self) -> None:
         for behavior, tab in self._requests.items():
             tab.send.disabled = not (self._mine and self._valid[behavior])
-        ptwl = self.ptwl
-        # The same PTWL, a part of it; its preview runs what Send would send.
-        ptwl.send_step.disabled = ptwl.send.disabled or bool(ptwl.step_percent.reason)
-        ptwl.preview.disabled = not self._valid["ptwl"]
+        self.ptwl.step.refresh(self.ptwl.send.disabled, self._valid["ptwl"])
         self.frames.refresh_buttons(self._mine)
 
     def show_frames_known(self, frames: list[dict[str, Any]]) -> None:
@@ -162,7 +159,7 @@ class Panel:
         names = list(dict.fromkeys([*BUILT_IN_FRAMES, *(f["name"] for f in frames)]))  # Mantine: no repeats
         for field in (self.ptwl.frame, self.rwe.frame, self.dither.frame):
             field.options = names  # viser keeps the value if it is still there, else takes the first
-        self.ptwl.gains_frame.options = [PRESET_FRAME, *names]
+        self.ptwl.settings.gains_frame.options = [PRESET_FRAME, *names]
         self.frames.show_known(frames)
         self.refresh_buttons()
 

@@ -7,7 +7,8 @@ import viser
 
 from web.markup import add_html, show
 from web.panel_html import check_html, summary_html
-from web.ptwl_tab import BUILT_IN_FRAMES, FRAME_HINT
+from web.ptwl_settings import BUILT_IN_FRAMES
+from web.ptwl_tab import FRAME_HINT
 from web.request_tab import RequestTab, set_value
 from web.typed_number import SECONDS, TypedNumber
 

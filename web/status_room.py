@@ -4,13 +4,15 @@ what else is drawn from it each tick (the ghost's label, the robot's STALE look)
 
 import time
 
+import viser
+
 from web.command_log import CommandLog
 from web.commanding import Commanding
 from web.robot_link import RobotLink
 from web.robot_view import RobotView
 from web.scene_keeper import SceneKeeper
 from web.seat import ControlSeat, operator_name
-from web.status_bar import BarInputs, Level
+from web.status_bar import BarInputs, Level, StatusBar
 from web.twin_room import TwinRoom
 from web.twin_trust import TwinTrust, ghost_label, twin_readout
 
@@ -18,6 +20,7 @@ from web.twin_trust import TwinTrust, ghost_label, twin_readout
 class StatusRoom:
     def __init__(
         self,
+        gui: viser.GuiApi,
         link: RobotLink,
         log: CommandLog,
         commanding: Commanding,
@@ -29,6 +32,7 @@ class StatusRoom:
         self._link, self._log, self._commanding, self._seat = link, log, commanding, seat
         self._scene, self._twin, self._view = scene, twin, view
         self.recording = ""  # a replay's file name: the bar says it is a recording
+        self.bar = StatusBar(gui, self.inputs, self.on_level, self.on_tick)  # drawn from this model
 
     def inputs(self) -> BarInputs:
         state, arrived = self._link.latest()
