@@ -42,6 +42,8 @@ MAX_TORQUE_THRESHOLD_NM = 50.0
 # [s] how far a sender's clock may lead the robot's in `sent_at` (the server's --sent-at-skew
 # default): more would let a stamp keep a command fresh past its max_age.
 SENT_AT_SKEW_S = 5.0
+COMMAND_QUEUE_MAX = 64  # queued commands; beyond it a command is refused (POST: 429)
+COMMAND_HISTORY_MAX = 1000  # ended commands kept (GET /api/commands)
 MAX_SEED = 2**32 - 1  # scene seeds: numpy takes any non-negative int; one range to document
 
 STIFFNESS_MAX = (20000.0, 20000.0, 20000.0, 1000.0, 1000.0, 1000.0)  # [N/m x3, N m/rad x3]

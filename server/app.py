@@ -9,8 +9,10 @@ from fastapi import FastAPI
 from guard.asgi import AccessGuard
 from guard.body_limit import BodyLimitMiddleware
 from guard.json_body import StrictJsonBody
-from server.commands import CommandBook, CommandIds, CommandRecord
-from server.config import BODY_LIMIT_BYTES, HISTORY_MAX, QUEUE_MAX, ServerConfig
+from robot_sim.command_book import CommandRecord
+from robot_sim.limits import COMMAND_HISTORY_MAX, COMMAND_QUEUE_MAX
+from server.commands import CommandBook, CommandIds
+from server.config import BODY_LIMIT_BYTES, ServerConfig
 from server.errors import install_error_handlers
 from server.models import COMMON_RESPONSES
 from server.recording import RecordingThread, session_metadata
@@ -48,7 +50,7 @@ def create_app(config: ServerConfig) -> FastAPI:
             if recording is not None:
                 recording.state(text)
 
-        book = CommandBook(QUEUE_MAX, HISTORY_MAX, on_change, ids, config.sent_at_skew_s)
+        book = CommandBook(COMMAND_QUEUE_MAX, COMMAND_HISTORY_MAX, on_change, ids, config.sent_at_skew_s)
         runner = SimRunner(config.scene, config.seed, config.telemetry_hz, book, publish)
         if config.record is not None:
             recording = RecordingThread(config.record, session_metadata(config))

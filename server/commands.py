@@ -1,11 +1,5 @@
-"""The command book: queued, running and finished commands.
-
-Shared by the event loop (submit, read, stop) and the simulation thread (start, finish), so every
-method takes one lock, briefly; nothing here blocks on I/O or physics.
-
-Every status change (queued, running, done, dropped) goes through `_changed`, which hands the
-record to the one listener that publishes its event and wakes its waiters; it is called under
-the lock, so events leave in the order the changes happened, whichever thread made them.
+"""The server's command book: the book's rule (robot_sim/command_book.py) shared by the event
+loop and the simulation thread under one lock, the API's view of a record, and the ids.
 
 Ids never repeat and only grow, across restarts too, whatever the wall clock does (CommandIds):
 each command takes the next integer, from a start past both the wall clock in microseconds and
@@ -14,51 +8,26 @@ every id an earlier run put on record. A run records ids in blocks before it giv
 rest of a block, never an id's uniqueness; a clock stepped back across a restart (NTP, a VM
 restored) cannot bring an old id back. `instance` tells runs apart for a client that saw the
 robot restart.
-
-A command's `sent_at` (the sender's clock) more than the allowed skew in the future is refused
-at submission (FutureSentAtError, a 422): judged against it, `max_age` would never run out.
 """
 
+import contextlib
 import fcntl
 import json
 import math
 import os
-import secrets
 import threading
 import time
-from collections import OrderedDict, deque
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import Any
 
 from robot_sim.behaviors import BehaviorReport
-from robot_sim.behaviors.base import ExitCondition, Pose
+from robot_sim.behaviors.base import Pose
+from robot_sim.command_book import CommandBook as Book
+from robot_sim.command_book import CommandRecord, Listener
 from robot_sim.executor import CommandParams
 from robot_sim.limits import SENT_AT_SKEW_S
 from robot_sim.policies.run import StepRecord
-from robot_sim.task_frames import frames_named
 from server.models import CommandStatus, MachineStepModel, PoseModel
-
-
-class QueueFullError(Exception):
-    def __init__(self, limit: int) -> None:
-        super().__init__(
-            f"command queue is full ({limit} queued); wait for commands to finish or POST /api/stop"
-        )
-
-
-class FutureSentAtError(ValueError):
-    """A command stamped `sent_at` further ahead of the robot's clock than the allowed skew."""
-
-    field = "sent_at"
-
-    def __init__(self, sent_at_s: float, now_s: float, skew_s: float) -> None:
-        super().__init__(
-            f"must be in [0, now + {skew_s:g}] s (Unix time; now is {now_s:.3f} on the robot's clock, "
-            f"which the sender's may lead by at most {skew_s:g} s), got {sent_at_s:.6g}"
-        )
-
 
 ID_BLOCK = 4096  # ids put on record per write of the state file
 
@@ -164,51 +133,34 @@ def _finite_or_none(value: float) -> float | None:
     return value if math.isfinite(value) else None
 
 
-@dataclass
-class CommandRecord:
-    id: int
-    instance: str
-    params: CommandParams
-    params_json: dict[str, Any]  # as validated, defaults filled in (dumped once)
-    queued_at: float
-    status: str = "queued"
-    started_at: float | None = None
-    ended_at: float | None = None
-    exit: str | None = None
-    report: BehaviorReport | None = None
-    detail: str = ""
-    sender: str | None = None
-    goal: Pose | None = None
-    steps: list[StepRecord] = field(default_factory=list)  # a state machine's, as they end
-
-    def to_model(self) -> CommandStatus:
-        """The API's view. A fault can leave NaN in the report: such fields become null, with
-        the reason in `detail`, so the record stays valid JSON for every reader."""
-        r = self.report
-        final_wrench, final_port = _final_figures(r) if r else (None, None)
-        detail = self.detail
-        if r is not None and (final_wrench is None or final_port is None):
-            detail = (detail + "; " if detail else "") + "non-finite final wrench or pose reported as null"
-        return CommandStatus(
-            id=self.id,
-            instance=self.instance,
-            type=self.params.type,
-            status=self.status,
-            exit=self.exit,
-            params=self.params_json,
-            queued_at=self.queued_at,
-            started_at=self.started_at,
-            ended_at=self.ended_at,
-            duration=_finite_or_none(r.duration) if r else None,
-            peak_force=_finite_or_none(r.peak_force) if r else None,
-            peak_torque=_finite_or_none(r.peak_torque) if r else None,
-            final_wrench=final_wrench,
-            final_port=final_port,
-            detail=detail,
-            sender=self.sender,
-            goal=PoseModel(**self.goal.as_dict()) if self.goal else None,
-            steps=[_step_model(step) for step in self.steps],
-        )
+def status_model(record: CommandRecord) -> CommandStatus:
+    """The API's view of a record. A fault can leave NaN in the report: such fields become null,
+    with the reason in `detail`, so the record stays valid JSON for every reader."""
+    r = record.report
+    final_wrench, final_port = _final_figures(r) if r else (None, None)
+    detail = record.detail
+    if r is not None and (final_wrench is None or final_port is None):
+        detail = (detail + "; " if detail else "") + "non-finite final wrench or pose reported as null"
+    return CommandStatus(
+        id=record.id,
+        instance=record.instance,
+        type=record.params.type,
+        status=record.status,
+        exit=record.exit,
+        params=record.params_json,
+        queued_at=record.queued_at,
+        started_at=record.started_at,
+        ended_at=record.ended_at,
+        duration=_finite_or_none(r.duration) if r else None,
+        peak_force=_finite_or_none(r.peak_force) if r else None,
+        peak_torque=_finite_or_none(r.peak_torque) if r else None,
+        final_wrench=final_wrench,
+        final_port=final_port,
+        detail=detail,
+        sender=record.sender,
+        goal=PoseModel(**record.goal.as_dict()) if record.goal else None,
+        steps=[_step_model(step) for step in record.steps],
+    )
 
 
 def _final_figures(report: BehaviorReport) -> tuple[list[float] | None, PoseModel | None]:
@@ -233,10 +185,12 @@ def _step_model(step: StepRecord) -> MachineStepModel:
     )
 
 
-Listener = Callable[[CommandRecord], None]
-
-
 class CommandBook:
+    """The book (robot_sim/command_book.py) as the server shares it between the event loop
+    (submit, read) and the simulation thread (start, finish, stop): every call under one lock,
+    briefly; the listener is called under it, so events leave in the order the changes happened
+    whichever thread made them. Ids come from CommandIds, the clock is the wall clock."""
+
     def __init__(
         self,
         queue_max: int,
@@ -247,36 +201,23 @@ class CommandBook:
         wall_clock_s: Callable[[], float] = time.time,
     ) -> None:
         self._lock = threading.Lock()
-        self._queue: deque[CommandRecord] = deque()
-        self._records: OrderedDict[int, CommandRecord] = OrderedDict()
-        self._queue_max = queue_max
-        self._history_max = history_max
-        self._on_change: Listener = on_change or (lambda record: None)
-        self.instance = secrets.token_hex(4)
-        self._ids = ids if ids is not None else CommandIds(None)
-        self._sent_at_skew_s = sent_at_skew_s
-        self._wall_clock_s = wall_clock_s
-        self.running: CommandRecord | None = None
+        ids = ids if ids is not None else CommandIds(None)
+        self._book = Book(queue_max, history_max, wall_clock_s, on_change, ids.take, sent_at_skew_s)
+        self.instance = self._book.instance
 
-    def _changed(self, record: CommandRecord) -> None:
-        """(under the lock) The one place a status change is announced."""
-        self._on_change(record)
+    @contextlib.contextmanager
+    def held(self) -> Iterator[Book]:
+        """The book itself, under the lock (the simulation thread's CommandRunner works on it)."""
+        with self._lock:
+            yield self._book
+
+    @property
+    def running(self) -> CommandRecord | None:
+        return self._book.running
 
     def submit(self, params: CommandParams, sender: str | None = None) -> CommandRecord:
-        now_s = self._wall_clock_s()
-        if params.sent_at is not None and params.sent_at > now_s + self._sent_at_skew_s:
-            raise FutureSentAtError(params.sent_at, now_s, self._sent_at_skew_s)
         with self._lock:
-            if len(self._queue) >= self._queue_max:
-                raise QueueFullError(self._queue_max)
-            record = CommandRecord(
-                self._ids.take(), self.instance, params, params.model_dump(), now_s, sender=sender
-            )
-            self._queue.append(record)
-            self._records[record.id] = record
-            self._trim()
-            self._changed(record)
-            return record
+            return self._book.submit(params, sender)
 
     def start_next(
         self,
@@ -284,106 +225,35 @@ class CommandBook:
         sim_time_s: float,
         cannot_start: Callable[[CommandParams], str | None] = lambda params: None,
     ) -> CommandRecord | None:
-        """Pop the oldest queued command, `start` it and mark it running (simulation thread);
-        one whose time has passed (params.py, Expiring) ends `expired` instead, unstarted, and one
-        that `cannot_start` gives a reason for (its task frame is gone) ends `aborted`.
-
-        `start` returns the absolute goal the robot resolved (a PTWL's port-at-start (+)
-        displacement), so the `running` event carries it: a console can draw the target the robot
-        is really heading for, not one it guessed from a delayed port."""
         with self._lock:
-            if self.running is not None:
-                return None
-            while self._queue:
-                record = self._queue.popleft()
-                reason = record.params.expiry_reason(self._wall_clock_s(), sim_time_s)
-                if reason is not None:
-                    self._end_unstarted(record, ExitCondition.EXPIRED, reason)
-                    continue
-                refusal = cannot_start(record.params)
-                if refusal is not None:
-                    self._end_unstarted(record, ExitCondition.ABORTED, refusal)
-                    continue
-                return self._start(record, start)
-            return None
-
-    def _start(self, record: CommandRecord, start: Callable[[CommandRecord], Pose | None]) -> CommandRecord:
-        """(under the lock)"""
-        record.goal = start(record)
-        record.status = "running"
-        record.started_at = self._wall_clock_s()
-        self.running = record
-        self._changed(record)
-        return record
+            return self._book.start_next(start, sim_time_s, cannot_start)
 
     def finish(self, report: BehaviorReport) -> CommandRecord | None:
-        """The running command ended with `report` (simulation thread)."""
         with self._lock:
-            record = self.running
-            if record is None:
-                return None
-            record.status = "done"
-            record.exit = report.exit.value
-            record.report = report
-            record.detail = report.detail
-            record.ended_at = self._wall_clock_s()
-            self.running = None
-            self._changed(record)
-            return record
+            return self._book.finish(report)
 
     def step_done(self, step: StepRecord) -> None:
-        """A step of the running state machine ended (simulation thread): announced while the
-        machine goes on, so a watcher sees each step and why the next was chosen."""
         with self._lock:
-            if self.running is not None:
-                self.running.steps.append(step)
-                self._changed(self.running)
-
-    def drop_queued(self, detail: str) -> list[CommandRecord]:
-        """End every queued command `aborted` without running it."""
-        with self._lock:
-            dropped = list(self._queue)
-            self._queue.clear()
-            for record in dropped:
-                self._end_unstarted(record, ExitCondition.ABORTED, detail)
-            return dropped
-
-    def _end_unstarted(self, record: CommandRecord, exit: ExitCondition, detail: str) -> None:
-        """(under the lock) A queued command ends without having run."""
-        record.status = "done"
-        record.exit = exit.value
-        record.detail = detail
-        record.ended_at = self._wall_clock_s()
-        self._changed(record)
+            self._book.step_done(step)
 
     def get(self, command_id: int) -> CommandStatus | None:
         with self._lock:
-            record = self._records.get(command_id)
-            return record.to_model() if record else None
+            record = self._book.record(command_id)
+            return status_model(record) if record else None
 
     def is_done(self, command_id: int) -> bool:
         with self._lock:
-            record = self._records.get(command_id)
+            record = self._book.record(command_id)
             return record is not None and record.status == "done"
 
     def recent(self, limit: int) -> list[CommandStatus]:
         with self._lock:
-            records = list(self._records.values())[-limit:]
-            return [r.to_model() for r in records]
+            return [status_model(r) for r in self._book.recent(limit)]
 
     def naming_frame(self, name: str) -> list[int]:
-        """Ids of the queued and running commands that name the task frame `name`."""
         with self._lock:
-            waiting = [*self._queue, *([self.running] if self.running else [])]
-            return sorted(r.id for r in waiting if name in frames_named(r.params).values())
+            return self._book.naming_frame(name)
 
     def queued_count(self) -> int:
         with self._lock:
-            return len(self._queue)
-
-    def _trim(self) -> None:
-        while len(self._records) > self._history_max:
-            oldest_id = next(iter(self._records))
-            if self._records[oldest_id].status != "done":
-                break
-            del self._records[oldest_id]
+            return self._book.queued_count()

@@ -10,8 +10,6 @@ from recording.paths import check_record_path
 from robot_sim.limits import SENT_AT_SKEW_S
 
 DEFAULT_PORT = 8000
-QUEUE_MAX = 64  # queued commands; beyond it POST /api/commands answers 429
-HISTORY_MAX = 1000  # finished commands kept for GET /api/commands
 MAX_SENT_AT_SKEW_S = 3600.0  # [s] more would let a stamp defeat max_age by an hour or more
 IDS_FILE = "command-ids.json"  # in the data dir: ids on record, so none repeats after a restart
 

@@ -12,8 +12,9 @@ from fastapi.responses import JSONResponse
 from fastapi.routing import APIRoute
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
+from robot_sim.command_book import FutureSentAtError, QueueFullError
 from robot_sim.errors import UnknownNameError
-from server.commands import FutureSentAtError, IdRecordError, QueueFullError
+from server.commands import IdRecordError
 
 _TAGS = {"ptwl", "rwe", "dither"}
 

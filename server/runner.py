@@ -18,15 +18,15 @@ from typing import Any
 
 from robot_sim.behaviors import BehaviorReport
 from robot_sim.behaviors.base import Pose
-from robot_sim.executor import CommandExecutor
+from robot_sim.command_book import CommandRecord
+from robot_sim.command_runner import CommandRunner
 from robot_sim.geometry import moving_bodies, scene_geometry
-from robot_sim.params import StateMachineParams
 from robot_sim.policies.run import StepRecord
 from robot_sim.scenes import get_scene
 from robot_sim.sim import Simulation
 from robot_sim.task_frames import TaskFrame, unit_quaternion
 from robot_sim.telemetry import frames_change_message, frames_message, state_fields
-from server.commands import CommandBook, CommandRecord
+from server.commands import CommandBook, status_model
 from server.pacing import RealTimePacer
 
 BATCH_S = 0.002  # [s] sim time between inbox checks: bounds command start latency
@@ -50,8 +50,9 @@ class SimRunner:
         get_scene(scene)  # fail early, listing the scenes
         self.sim = Simulation(scene, seed)
         self._moving = moving_bodies(self.sim.model)
-        self._executor = CommandExecutor(self.sim)
         self.book = book
+        with book.held() as held:  # each use below takes the lock again
+            self._commands = CommandRunner(self.sim, held, self._step_ended)
         self._publish = publish
         self._period = 1.0 / telemetry_hz
         self._batch = min(BATCH_S, self._period)
@@ -91,12 +92,9 @@ class SimRunner:
 
     def stop_all(self) -> dict[str, Any]:
         """(simulation thread) Abort the running command, drop the queue, hold the robot."""
-        dropped = self.book.drop_queued("dropped by stop")
-        running = self.book.running
-        report = self.sim.hold_position()  # ends the running behavior `aborted`, "stopped"
-        if report is not None:
-            self._command_done(report)
-        return {"aborted": running.id if running else None, "dropped": [r.id for r in dropped]}
+        with self.book.held():
+            stopped = self._commands.stop_all()
+        return {"aborted": stopped.aborted, "dropped": stopped.dropped}
 
     def reset_scene(self, name: str, seed: int | None) -> dict[str, Any]:
         """(simulation thread) Stop everything and load `name` fresh."""
@@ -176,9 +174,8 @@ class SimRunner:
                 request.reply.set_exception(err)
 
     def _start_next(self) -> None:
-        self.book.start_next(
-            lambda record: self._executor.start(record.params), self.sim.time, self.sim.frames.missing_reason
-        )
+        with self.book.held():
+            self._commands.start_next()
 
     def _advance(self) -> None:
         faults_before = self.sim.fault_count
@@ -196,17 +193,13 @@ class SimRunner:
             self.on_scene_loaded(self.geometry())
 
     def _command_done(self, report: BehaviorReport) -> None:
-        """A behavior ended: the command's end, or a state machine's step (executor.py)."""
-        running = self.book.running
-        ended = self._executor.behavior_ended(report)
-        if running is not None and self.on_step is not None:
-            self.on_step(running.id, ended.step)
-        # A machine's steps are announced as they end; a behavior command's one step is the
-        # command itself, announced by its end.
-        if running is not None and isinstance(running.params, StateMachineParams):
-            self.book.step_done(ended.step)
-        if ended.command is not None:
-            self.book.finish(ended.command)  # the book announces it
+        """A behavior ended: the command's end, or a state machine's step (the book announces it)."""
+        with self.book.held():
+            self._commands.behavior_ended(report)
+
+    def _step_ended(self, command_id: int, step: StepRecord) -> None:
+        if self.on_step is not None:
+            self.on_step(command_id, step)
 
     # ----------------------------------------------------------------- telemetry
     def _state(self) -> dict[str, Any]:
@@ -234,6 +227,6 @@ class SimRunner:
 def command_event(record: CommandRecord) -> str:
     """`{"type": "command", ...command}`; the command's own `type` (ptwl, rwe, dither) would
     collide with the message type, so it travels as `behavior`."""
-    command = record.to_model().model_dump()
+    command = status_model(record).model_dump()
     command["behavior"] = command.pop("type")
     return json.dumps({"type": "command", **command})

@@ -111,7 +111,7 @@ def test_a_post_that_arrives_twice_runs_once_and_a_status_says_what_the_robot_kn
     params = PtwlParams(translation=[0.0, 0.0, 0.005], duration=0.2)
     assert robot.handle(Post("ground-1", params)) == Accepted("ground-1")
     assert robot.handle(Post("ground-1", params)) == Accepted("ground-1")  # a resend that did arrive
-    assert len(robot.queue) == 1
+    assert robot.book.queued_count() == 1
     assert robot.handle(Query("ground-1")) == Status("ground-1", True, None)
     assert robot.handle(Query("ground-2")) == Status("ground-2", False, None)  # never got it
     done = None

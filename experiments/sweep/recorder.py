@@ -57,11 +57,10 @@ class TrialRecorder:
             for tag in robot.reports:
                 if tag not in self._ids:
                     self._ids[tag] = len(self._ids) + 1
-                    post = next(p for p in (robot.running, *robot.queue) if p is not None and p.tag == tag)
-                    self._params[tag] = post.params
+                    self._params[tag] = robot.submitted[tag].params
                     self._queued_s[tag] = now
                     self._command(tag, "queued", ns)
-        running = robot.running.tag if robot.running is not None else None
+        running = robot.running_tag
         if running is not None and running != self._running:
             self._command(running, "running", ns)
         self._running = running

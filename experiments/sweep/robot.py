@@ -1,18 +1,25 @@
-"""The robot side of a virtual-time trial: the task's scene, its commands run in order one at a
-time by the server's rules (robot_sim/executor.py), and the figures the paper's tables use,
-measured where they happen (on the robot), not where they are reported.
+"""The robot side of a virtual-time trial: the task's scene, its commands run by the server's own
+rule (robot_sim/command_book.py: queue, ids, the 64-command cap, expiry judged at the start, the
+task-frame gate, lifecycle; robot_sim/command_runner.py: what a command does on the robot) on the
+trial's clock, and the figures the paper's tables use, measured where they happen (on the
+robot), not where they are reported.
 
 It speaks the messages of the real API, as Python objects: a POST of a command (answered with
 its acceptance), a GET of a command's status, and a command event when one ends.
 """
 
-from collections import deque
 from dataclasses import dataclass, field
 
 from robot_sim.behaviors import BehaviorReport
-from robot_sim.executor import CommandExecutor, CommandParams
+from robot_sim.command_book import CommandBook, CommandRecord
+from robot_sim.command_runner import CommandRunner, Stopped
+from robot_sim.executor import CommandParams
+from robot_sim.limits import COMMAND_HISTORY_MAX, COMMAND_QUEUE_MAX
 from robot_sim.policies.run import StepRecord
 from robot_sim.sim import Simulation
+
+# The trial's clock as Unix time (what `sent_at` and `max_age` are judged by): its t = 0.
+VIRTUAL_EPOCH_S = 1_700_000_000.0
 
 
 @dataclass(frozen=True)
@@ -79,48 +86,64 @@ class Figures:
 class VirtualRobot:
     def __init__(self, task: str, seed: int) -> None:
         self.sim = Simulation(task, seed)
-        self.executor = CommandExecutor(self.sim)
-        self.queue: deque[Post] = deque()
-        self.running: Post | None = None
+        self.book = CommandBook(
+            COMMAND_QUEUE_MAX, COMMAND_HISTORY_MAX, self.unix_time_s, self._changed, instance="virtual"
+        )
+        self.commands = CommandRunner(self.sim, self.book)
         self.reports: dict[str, BehaviorReport | None] = {}  # by tag: None while queued or running
+        self.records: list[CommandRecord] = []  # every command's record, in the order they ended
         self.figures = Figures()
-        self._pending: dict[str, float] = {}  # tag -> sim time the running behavior started
+        self._tags: dict[int, str] = {}  # command id -> the sender's tag
+        self.submitted: dict[str, CommandRecord] = {}  # by tag, in the order they arrived
+
+    @property
+    def running_tag(self) -> str | None:
+        running = self.book.running
+        return self._tags[running.id] if running is not None else None
+
+    def unix_time_s(self) -> float:
+        return VIRTUAL_EPOCH_S + self.sim.time
+
+    def _changed(self, record: CommandRecord) -> None:
+        if record.status == "done":
+            self.records.append(record)
+            if record.report is not None:
+                self.reports[self._tags[record.id]] = record.report
+
+    def stop(self) -> Stopped:
+        """POST /api/stop (the sweeps' operators never send it; scripts and tests do)."""
+        return self.commands.stop_all()
 
     def handle(self, request: Request) -> Reply:
         """A request that arrived; its answer (the server answers between 2 ms batches)."""
         if isinstance(request, Post):
             if request.tag not in self.reports:  # a resent POST that did arrive is not run twice
+                record = self.book.submit(request.params, sender=request.tag)
+                self._tags[record.id] = request.tag
+                self.submitted[request.tag] = record
                 self.reports[request.tag] = None
-                self.queue.append(request)
             return Accepted(request.tag)
         return Status(request.tag, request.tag in self.reports, self.reports.get(request.tag))
 
     def tick(self) -> Done | None:
         """One control period: start the next queued command if idle, step; an ended command."""
-        sim = self.sim
-        if sim.behavior is None and self.running is None and self.queue:
-            self.running = self.queue.popleft()
-            self.executor.start(self.running.params)
-            if self.figures.first_start_s is None:
-                self.figures.first_start_s = sim.time
+        sim, figures = self.sim, self.figures
+        if self.commands.start_next() is not None and figures.first_start_s is None:
+            figures.first_start_s = sim.time
         report = sim.step()
-        figures = self.figures
         if figures.first_start_s is not None:
             figures.force_sum += sim.controller.force_norm
             figures.torque_sum += sim.controller.torque_norm
             figures.ticks += 1
         if report is None:
             return None
-        assert self.running is not None
         figures.at_last_end = (figures.force_sum, figures.torque_sum, figures.ticks)
-        ended = self.executor.behavior_ended(report)
+        running, ended = self.commands.behavior_ended(report)
         figures.steps.append(ended.step)
         if ended.command is None:
             return None
-        done = Done(self.running.tag, ended.command)
-        self.reports[done.tag] = ended.command
-        self.running = None
-        return done
+        assert running is not None
+        return Done(self._tags[running.id], ended.command)
 
     def tick_until(self, until_s: float) -> Done | None:
         """One tick, then more while nothing else can happen before `until_s` (the next instant

@@ -54,24 +54,28 @@ async def submit_command(
 
     `warnings` says what is accepted but worth knowing (an approach that will overshoot the
     force threshold on impact)."""
-    if isinstance(params, StateMachineParams) and runner.sim.scene.name != params.task:
-        message = (
-            f"the {params.task} state machine needs scene {params.task}; {runner.sim.scene.name} is loaded"
-        )
-        raise RequestValidationError([{"loc": ("body", "task"), "msg": message, "type": "value_error"}])
-    if isinstance(params, GripperParams) and runner.sim.scene.gripper is None:
-        message = f"the {runner.sim.scene.name} scene's tool has no gripper"
-        raise RequestValidationError([{"loc": ("body", "type"), "msg": message, "type": "value_error"}])
-    frames = runner.sim.frames
-    unknown_frames = frames.unknown_errors(params)
-    if unknown_frames:
-        raise RequestValidationError(unknown_frames)
-    record = book.submit(params, sender)
-    warnings: list[str] = []
-    if isinstance(params, PtwlParams):
-        q_world_port = runner.latest_state["port"]["quaternion"]
-        warnings = ptwl_warnings(params, runner.sim.controller.gains, q_world_port, frames)
-    return CommandAccepted(id=record.id, instance=record.instance, warnings=warnings)
+
+    def admit() -> CommandAccepted:
+        """(simulation thread) Checked against the scene, its frames and the gains as they are,
+        and queued in the same step: a frame cannot vanish between its check and the queue."""
+        sim = runner.sim
+        if isinstance(params, StateMachineParams) and sim.scene.name != params.task:
+            message = f"the {params.task} state machine needs scene {params.task}; {sim.scene.name} is loaded"
+            raise RequestValidationError([{"loc": ("body", "task"), "msg": message, "type": "value_error"}])
+        if isinstance(params, GripperParams) and sim.scene.gripper is None:
+            message = f"the {sim.scene.name} scene's tool has no gripper"
+            raise RequestValidationError([{"loc": ("body", "type"), "msg": message, "type": "value_error"}])
+        unknown_frames = sim.frames.unknown_errors(params)
+        if unknown_frames:
+            raise RequestValidationError(unknown_frames)
+        record = book.submit(params, sender)
+        warnings: list[str] = []
+        if isinstance(params, PtwlParams):
+            q_world_port = runner.latest_state["port"]["quaternion"]
+            warnings = ptwl_warnings(params, sim.controller.gains, q_world_port, sim.frames)
+        return CommandAccepted(id=record.id, instance=record.instance, warnings=warnings)
+
+    return await on_sim_thread(runner, admit)
 
 
 @router.get("/commands", response_model=list[CommandStatus])

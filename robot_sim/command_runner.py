@@ -1,0 +1,63 @@
+"""A robot that runs the commands of a book (robot_sim/command_book.py) on a Simulation: the
+next queued command starts when no behavior runs (checked against the task frames it names), a
+behavior's end is the command's end or a state machine's step, STOP aborts the running command
+and drops the queue. The real-time server (server/runner.py) and the sweeps' virtual robot
+(experiments/sweep/robot.py) both run commands through this, on their own clocks."""
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from robot_sim.behaviors import BehaviorReport
+from robot_sim.command_book import CommandBook, CommandRecord
+from robot_sim.executor import CommandExecutor, Ended
+from robot_sim.params import StateMachineParams
+from robot_sim.policies.run import StepRecord
+from robot_sim.sim import Simulation
+
+
+@dataclass(frozen=True)
+class Stopped:
+    aborted: int | None  # the running command's id
+    dropped: list[int]  # the queued commands' ids
+
+
+class CommandRunner:
+    def __init__(
+        self, sim: Simulation, book: CommandBook, on_step: Callable[[int, StepRecord], None] | None = None
+    ) -> None:
+        self.sim = sim
+        self.book = book
+        self._executor = CommandExecutor(sim)
+        self._on_step = on_step  # every behavior's end, by command id (a recording's steps)
+
+    def start_next(self) -> CommandRecord | None:
+        """Start the next queued command if no behavior runs; the one started."""
+        if self.sim.behavior is not None:
+            return None
+        sim = self.sim
+        return self.book.start_next(
+            lambda record: self._executor.start(record.params), sim.time, sim.frames.missing_reason
+        )
+
+    def behavior_ended(self, report: BehaviorReport) -> tuple[CommandRecord | None, Ended]:
+        """A behavior ended: the running command's end, or its state machine's step (announced
+        as it ends; a behavior command's one step is the command itself, announced by its end).
+        (The command it belonged to, what its end meant.)"""
+        running = self.book.running
+        ended = self._executor.behavior_ended(report)
+        if running is not None and self._on_step is not None:
+            self._on_step(running.id, ended.step)
+        if running is not None and isinstance(running.params, StateMachineParams):
+            self.book.step_done(ended.step)
+        if ended.command is not None:
+            self.book.finish(ended.command)
+        return running, ended
+
+    def stop_all(self) -> Stopped:
+        """Abort the running command, drop the queue, hold the robot where it is."""
+        dropped = self.book.drop_queued()
+        running = self.book.running
+        report = self.sim.hold_position()  # ends the running behavior `aborted`, "stopped"
+        if report is not None:
+            self.behavior_ended(report)
+        return Stopped(running.id if running else None, [r.id for r in dropped])
