@@ -36,6 +36,7 @@ from foxglove.messages import (
 )
 
 from recording.topics import BASE_FRAME, WORLD_BODY
+from robot_sim.exit_severity import Severity, severity
 
 FORCE_ARROW_M_PER_N = 0.005  # [m/N] 20 N draws a 10 cm arrow
 FORCE_ARROW_MIN_N = 0.05  # [N] below this (sensor noise at rest) no arrow is drawn
@@ -188,18 +189,21 @@ def _in_body(geom: dict[str, Any], point_in_geom: list[float]) -> list[float]:
     return (out + np.asarray(geom["pos"], dtype=float)).tolist()
 
 
-_BAD_EXITS = {
-    "fault": LogLevel.Error,
-    "aborted": LogLevel.Warning,
-    "wrench_breach": LogLevel.Warning,
-    "timeout": LogLevel.Warning,
-    "failed": LogLevel.Warning,
-    "expired": LogLevel.Warning,
+LOG_LEVELS = {
+    Severity.SUCCESS: LogLevel.Info,
+    Severity.NOTICE: LogLevel.Warning,  # it did not run to its end: worth seeing in a log
+    Severity.WARNING: LogLevel.Warning,
+    Severity.ERROR: LogLevel.Error,
 }
 
 
+def log_level(exit_condition: str | None) -> LogLevel:
+    """A log line's level: a command's end is as severe as its exit; anything else is info."""
+    return LogLevel.Info if exit_condition is None else LOG_LEVELS[severity(exit_condition)]
+
+
 def log_line(ns: int, name: str, text: str, exit_condition: str | None = None) -> Log:
-    level = _BAD_EXITS.get(exit_condition or "", LogLevel.Info)
+    level = log_level(exit_condition)
     return Log(timestamp=timestamp(ns), level=level, message=text, name=name)
 
 

@@ -19,19 +19,20 @@ from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any
 
-EXIT_COLORS = {
-    "goal_reached": "#2f9e44",
-    "completed": "#2f9e44",
-    "wrench_breach": "#e8590c",
-    "timeout": "#f08c00",
-    "aborted": "#868e96",
-    "expired": "#ae3ec9",
-    "anomaly": "#e8590c",
-    "fault": "#e03131",
-    "refused": "#e03131",
-    "lost": "#e03131",
+from robot_sim.exit_severity import Severity, severity
+
+SEVERITY_COLORS = {  # Mantine's green, violet, orange and red (the phases are blue)
+    Severity.SUCCESS: "#2f9e44",
+    Severity.NOTICE: "#ae3ec9",
+    Severity.WARNING: "#e8590c",
+    Severity.ERROR: "#e03131",
 }
 PHASE_COLORS = {"sent": "#1971c2", "queued": "#1971c2", "running": "#7048e8"}
+
+
+def exit_color_hex(exit_condition: str | None) -> str:
+    """An exit's colour in the history and the replay's marks, by its severity."""
+    return SEVERITY_COLORS[severity(exit_condition)]
 
 
 @dataclass
@@ -67,7 +68,7 @@ class CommandView:
 
     @property
     def color(self) -> str:
-        return EXIT_COLORS.get(self.status, PHASE_COLORS.get(self.status, "#495057"))
+        return exit_color_hex(self.exit) if self.phase == "done" else PHASE_COLORS.get(self.phase, "#495057")
 
 
 MAX_VIEWS = 1000  # commands kept, as many as the robot's own history keeps

@@ -5,15 +5,14 @@ from typing import Literal
 
 import viser
 
+from robot_sim.exit_severity import Severity, severity
+
 NotificationColor = Literal["gray", "red", "green", "orange", "yellow", "blue"]
-EXIT_NOTIFICATION_COLORS: dict[str, NotificationColor] = {
-    "goal_reached": "green",
-    "completed": "green",
-    "wrench_breach": "orange",
-    "timeout": "yellow",
-    "aborted": "gray",
-    "expired": "blue",  # not a fault of the robot: the link held it too long
-    "anomaly": "orange",  # the force task monitor stopped it: look before going on
+NOTIFICATION_COLORS: dict[Severity, NotificationColor] = {
+    Severity.SUCCESS: "green",
+    Severity.NOTICE: "blue",  # it did not run to its end (STOP, the link held it too long)
+    Severity.WARNING: "orange",
+    Severity.ERROR: "red",
 }
 
 
@@ -27,4 +26,4 @@ class Notifier:
 
 
 def exit_color(exit_condition: str | None) -> NotificationColor:
-    return EXIT_NOTIFICATION_COLORS.get(exit_condition or "", "red")
+    return NOTIFICATION_COLORS[severity(exit_condition)]

@@ -6,7 +6,7 @@ it, and the numbers, commands and exits in words.
 The strip's data-* attributes mirror what it shows (positions as fractions of the recording's
 duration), for tests."""
 
-from web.history import EXIT_COLORS, PHASE_COLORS
+from web.history import PHASE_COLORS, exit_color_hex
 from web.markup import Markup
 from web.replay_record import CommandSpan
 
@@ -87,4 +87,4 @@ def _within(t_s: float, end_s: float) -> float:
 def _color(command: CommandSpan) -> str:
     if command.exit is None:
         return PHASE_COLORS["running"]
-    return EXIT_COLORS.get(command.exit, "#495057")
+    return exit_color_hex(command.exit)
