@@ -30,6 +30,7 @@ from foxglove.messages import FrameTransforms
 from recording import topics, well_known
 from recording.topics import ATTRACTOR_FRAME, PORT_FRAME, TASK_FRAME_PREFIX, WORLD_BODY
 from robot_sim.arm import JOINT_NAMES
+from robot_sim.finite import finite_json
 
 CHUNK_SPAN_NS = 1_000_000_000  # a chunk never spans this much log time: kill -9 loses less
 PROFILE = "ptwl"
@@ -198,18 +199,8 @@ class SessionRecorder:
         try:
             text = json.dumps(message, allow_nan=False)
         except ValueError:  # a fault's NaN: strict JSON for every reader, as the API does
-            text = json.dumps(_finite(message), allow_nan=False)
+            text = json.dumps(finite_json(message), allow_nan=False)
         self._on(topic).log(text.encode(), log_time=ns)
-
-
-def _finite(value: Any) -> Any:
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, list):
-        return [_finite(v) for v in value]
-    return value
 
 
 def _wrench_fields(sim_time: float, wrench: list[float]) -> dict[str, Any]:

@@ -13,11 +13,10 @@ robot restart.
 import contextlib
 import fcntl
 import json
-import math
 import os
 import threading
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from robot_sim.behaviors import BehaviorReport
@@ -25,6 +24,7 @@ from robot_sim.behaviors.base import Pose
 from robot_sim.command_book import CommandBook as Book
 from robot_sim.command_book import CommandRecord, Listener
 from robot_sim.executor import CommandParams
+from robot_sim.finite import finite_or_none, finite_vector_or_none
 from robot_sim.limits import SENT_AT_SKEW_S
 from robot_sim.policies.run import StepRecord
 from server.models import CommandStatus, MachineStepModel, PoseModel
@@ -125,14 +125,6 @@ def _write_atomically(path: Path, text: str) -> None:
         os.close(directory)
 
 
-def _finite(values: Sequence[float]) -> list[float] | None:
-    return [float(v) for v in values] if all(math.isfinite(v) for v in values) else None
-
-
-def _finite_or_none(value: float) -> float | None:
-    return value if math.isfinite(value) else None
-
-
 def status_model(record: CommandRecord) -> CommandStatus:
     """The API's view of a record. A fault can leave NaN in the report: such fields become null,
     with the reason in `detail`, so the record stays valid JSON for every reader."""
@@ -151,9 +143,9 @@ def status_model(record: CommandRecord) -> CommandStatus:
         queued_at=record.queued_at,
         started_at=record.started_at,
         ended_at=record.ended_at,
-        duration=_finite_or_none(r.duration) if r else None,
-        peak_force=_finite_or_none(r.peak_force) if r else None,
-        peak_torque=_finite_or_none(r.peak_torque) if r else None,
+        duration=finite_or_none(r.duration) if r else None,
+        peak_force=finite_or_none(r.peak_force) if r else None,
+        peak_torque=finite_or_none(r.peak_torque) if r else None,
         final_wrench=final_wrench,
         final_port=final_port,
         detail=detail,
@@ -166,8 +158,8 @@ def status_model(record: CommandRecord) -> CommandStatus:
 def _final_figures(report: BehaviorReport) -> tuple[list[float] | None, PoseModel | None]:
     """(final wrench, final port) for the API; None where not finite (a fault's NaN)."""
     pose = report.final_port
-    finite_pose = _finite([*pose.position, *pose.quaternion]) is not None
-    return _finite(report.final_wrench), PoseModel(**pose.as_dict()) if finite_pose else None
+    finite_pose = finite_vector_or_none([*pose.position, *pose.quaternion]) is not None
+    return finite_vector_or_none(report.final_wrench), PoseModel(**pose.as_dict()) if finite_pose else None
 
 
 def _step_model(step: StepRecord) -> MachineStepModel:
@@ -177,8 +169,8 @@ def _step_model(step: StepRecord) -> MachineStepModel:
     return MachineStepModel(
         **{
             **step.as_dict(),
-            "peak_force": _finite_or_none(r.peak_force),
-            "peak_torque": _finite_or_none(r.peak_torque),
+            "peak_force": finite_or_none(r.peak_force),
+            "peak_torque": finite_or_none(r.peak_torque),
             "final_wrench": final_wrench,
             "final_port": final_port,
         }
