@@ -101,6 +101,11 @@ def gains_fields(gains: Gains) -> dict[str, Any]:
     return {"stiffness": gains.stiffness.tolist(), "damping": gains.damping.tolist(), "frame": gains.frame}
 
 
+def gains_of(fields: dict[str, Any]) -> Gains:
+    """The gains a state's `gains` fields say were in force (the inverse of gains_fields)."""
+    return Gains.of(fields["stiffness"], fields["damping"], fields["frame"])
+
+
 def task_fields(progress: TaskProgress) -> dict[str, Any]:
     """The task predicate for telemetry; a non-finite progress (a fault mid-evaluation) is null,
     so every message stays strict JSON."""

@@ -13,16 +13,19 @@ from server.pacing import BATCH_S, MAX_LAG_S, RealTimePacer
 from tests.fake_clock import FakeClock
 
 
-def test_pacer_steps_only_when_the_wall_clock_is_ahead(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(time, "sleep", lambda s: None)
+def test_pacer_steps_only_when_the_wall_clock_is_ahead() -> None:
     clock = FakeClock()
+    slept: list[float] = []
     sim = Simulation("free_space")
-    pacer = RealTimePacer(sim, clock=clock)
+    pacer = RealTimePacer(sim, clock=clock, sleep=slept.append)
     pacer.advance()  # lag 0: one batch
-    assert sim.time == pytest.approx(BATCH_S)
+    assert sim.time == pytest.approx(BATCH_S) and slept == []
+    clock.now += 0.002
     for _ in range(10):
-        pacer.advance()  # the sim is ahead of the wall clock: no steps
+        pacer.advance()  # the sim is 3 ms ahead of the wall clock: no steps, a sleep of 3 ms
     assert sim.time == pytest.approx(BATCH_S)
+    assert slept == pytest.approx([BATCH_S - 0.002] * 10)
+    clock.now -= 0.002
     for _ in range(100):  # 1 s of wall time in 10 ms ticks
         clock.now += 0.01
         while pacer.lag_s() > 0:
@@ -31,11 +34,10 @@ def test_pacer_steps_only_when_the_wall_clock_is_ahead(monkeypatch: pytest.Monke
     assert pacer.dropped_s == 0.0
 
 
-def test_pacer_drops_a_backlog_instead_of_racing(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(time, "sleep", lambda s: None)
+def test_pacer_drops_a_backlog_instead_of_racing() -> None:
     clock = FakeClock()
     sim = Simulation("free_space")
-    pacer = RealTimePacer(sim, clock=clock)
+    pacer = RealTimePacer(sim, clock=clock, sleep=lambda s: pytest.fail(f"slept {s} s while behind"))
     clock.now += 3.0  # the process was descheduled for 3 s
     pacer.advance()
     assert pacer.dropped_s == pytest.approx(3.0)

@@ -143,5 +143,13 @@ def test_every_dither_preset_is_a_valid_request() -> None:
 
 
 def test_explicit_fields_override_the_preset() -> None:
+    """The preset supplies every field not given (each differs from the model's default here),
+    the request's own fields win."""
     params = DitherParams(preset="translational_push", frequency=2.5, amplitude=0.001)
     assert params.frequency == 2.5 and params.amplitude == 0.001 and params.direction == "push"
+    preset = default_presets().dither_preset("translational_push")
+    given = {"frequency", "amplitude", "preset"}
+    from_preset = {name: getattr(params, name) for name in preset if name not in given}
+    assert from_preset == {name: value for name, value in preset.items() if name not in given}
+    defaults = DitherParams()  # so the preset's fields are told from the model's defaults
+    assert defaults.mode != params.mode == "translational" and defaults.travel != params.travel == 0.02

@@ -11,9 +11,9 @@ import viser
 
 from robot_sim.behaviors import BehaviorParams
 from robot_sim.errors import UnknownNameError
-from robot_sim.gains import Gains
 from robot_sim.params import PtwlParams
 from robot_sim.task_frames import TaskFrames
+from robot_sim.telemetry import gains_of
 from server.client import RobotError
 from server.models import StopResult
 from web.checks import Check, check_command
@@ -66,7 +66,7 @@ class Commanding:
         """A request checked by the robot's rules against the state shown (gains and port now)."""
         state, _ = self._link.latest()
         now = state["gains"] if state else None
-        gains = Gains.of(now["stiffness"], now["damping"], now["frame"]) if now else None
+        gains = gains_of(now) if now else None
         q_world_port = np.asarray(state["port"]["quaternion"]) if state else None
         return check_command(behavior, params, gains, q_world_port, self._frames.task_frames)
 

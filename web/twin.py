@@ -35,6 +35,7 @@ from robot_sim.params import PtwlParams
 from robot_sim.pose_math import rotvec_from_to
 from robot_sim.sim import Simulation
 from robot_sim.task_frames import TaskFrames
+from robot_sim.telemetry import gains_of
 
 RESYNC_S = 0.5  # [s] wall time between restarts from the latest telemetry
 RECORD_S = 0.01  # [s] sim time between recorded predictions
@@ -93,16 +94,10 @@ def point_from_state(state: dict[str, Any], frames: TaskFrames) -> TwinPoint:
         float(state["sim_time"]),
         tuple(state["joint_positions"]),
         _pose(state["attractor"]),
-        _gains(state),
+        gains_of(state["gains"]),
         state.get("active_command") is not None,
         frames,
     )
-
-
-def _gains(state: dict[str, Any]) -> Gains:
-    """The gains a telemetry state says were in force."""
-    gains = state["gains"]
-    return Gains.of(gains["stiffness"], gains["damping"], gains["frame"])
 
 
 def _pose(message: dict[str, Any]) -> Pose:
@@ -279,7 +274,7 @@ class GroundTwin:
         assert sim is not None
         t_state, taken_at = float(state["sim_time"]), robot_wall_s(state)
         sim.frames = self.frames
-        gains_now = _gains(state)
+        gains_now = gains_of(state["gains"])
         if gains_now.frame not in self.frames.names():  # a frame whose news is still on the link
             gains_now = gains_now.in_frame("base")
         sim.sync_to(t_state, state["joint_positions"], _pose(state["attractor"]), gains_now)

@@ -27,12 +27,44 @@ def ptwl_goal(
     p_world_port: np.ndarray, q_world_port: np.ndarray, params: PtwlParams, frames: TaskFrames
 ) -> tuple[np.ndarray, np.ndarray]:
     """(position [m], quaternion wxyz) of the goal: port (+) displacement, base frame."""
-    R_world_axes = frames.axes_world(params.frame, q_world_port)
-    translation = R_world_axes @ np.asarray(params.translation, dtype=float)
-    rotation = R_world_axes @ np.asarray(params.rotation, dtype=float)
+    return displaced(p_world_port, q_world_port, params.translation, params.rotation, params.frame, frames)
+
+
+def displaced(
+    p_world_port: "np.ndarray | list[float]",
+    q_world_port: "np.ndarray | list[float]",
+    translation_m: "np.ndarray | list[float]",
+    rotation_rad: "np.ndarray | list[float]",
+    frame: str,
+    frames: TaskFrames,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Port (+) displacement: the translation and rotation vector in `frame`'s axes (the port's
+    at start for `tool`), the rotation about the port's origin; (position [m], wxyz), base frame.
+    The one rule, for the robot and for a console drawing where a PTWL will go."""
+    R_world_axes = frames.axes_world(frame, q_world_port)
+    translation = R_world_axes @ np.asarray(translation_m, dtype=float)
+    rotation = R_world_axes @ np.asarray(rotation_rad, dtype=float)
     q_goal = np.zeros(4)
     rotate_world(q_goal, np.asarray(q_world_port, dtype=float), rotation, 1.0, np.zeros(4))
     return np.asarray(p_world_port, dtype=float) + translation, q_goal
+
+
+def displacement_between(
+    p_world_port: "np.ndarray | list[float]",
+    q_world_port: "np.ndarray | list[float]",
+    p_world_goal: "np.ndarray | list[float]",
+    q_world_goal: "np.ndarray | list[float]",
+    frame: str,
+    frames: TaskFrames,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The (translation [m], rotation vector [rad]) in `frame`'s axes that `displaced` maps the
+    port to the goal with (a target dragged in 3D, written back as a PTWL)."""
+    R_axes_world = frames.axes_world(frame, q_world_port).T
+    dp_world = np.asarray(p_world_goal, dtype=float) - np.asarray(p_world_port, dtype=float)
+    rotvec_world = rotvec_from_to(
+        np.asarray(q_world_port, dtype=float), np.asarray(q_world_goal, dtype=float)
+    )
+    return R_axes_world @ dp_world, R_axes_world @ rotvec_world
 
 
 class Ptwl(Behavior):
