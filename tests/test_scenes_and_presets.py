@@ -65,7 +65,13 @@ def test_every_stiffness_preset_runs_a_ptwl(preset: str) -> None:
 # How each behavior ends in each scene at its start, and the scenes where it cannot move the port:
 # door and berthing start with gains nearly free along the tool's z (hinge, planar), and the
 # stowed tool's holder keeps an RWE from relieving within 0.2 s.
-STUCK = {("ptwl", "door"), ("ptwl", "berthing"), ("dither", "door"), ("dither", "berthing"), ("rwe", "tool_stowage")}
+STUCK = {
+    ("ptwl", "door"),
+    ("ptwl", "berthing"),
+    ("dither", "door"),
+    ("dither", "berthing"),
+    ("rwe", "tool_stowage"),
+}
 ENDS = {"ptwl": "goal_reached", "rwe": "completed", "dither": "goal_reached"}
 
 
