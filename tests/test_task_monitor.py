@@ -37,6 +37,23 @@ def test_rls_covariance_stays_bounded_without_excitation() -> None:
         rls.update(np.array([10.0, 1.0]), 3.0)
     assert np.all(np.diag(rls.P) <= 50.0 + 1e-9) and np.all(np.linalg.eigvalsh(rls.P) >= -1e-9)
     assert rls.predict(np.array([10.0, 1.0])) == pytest.approx(3.0, abs=1e-6)
+    # Forgetting did inflate the direction the data never excite, up to the cap and no further;
+    # along the regressor the data keep it small.
+    assert max(np.diag(rls.P)) == pytest.approx(50.0, rel=1e-9)
+    phi = np.array([10.0, 1.0])
+    assert float(phi @ rls.P @ phi) == pytest.approx(0.02, rel=0.05)
+
+
+def test_rls_with_equal_factors_is_the_textbook_update() -> None:
+    """theta += K (y - phi theta), K = P phi / (1 + phi P phi), P = (P - K phi^T P) / lambda."""
+    P0, lam = np.array([[2.0, 0.3], [0.3, 1.0]]), 0.9
+    rls = VectorForgettingRls(np.array([0.5, -1.0]), 1.0, np.array([lam, lam]), 1e9)
+    rls.P = P0.copy()
+    phi, y = np.array([3.0, 1.0]), 2.0
+    K = P0 @ phi / (1.0 + phi @ P0 @ phi)
+    rls.update(phi, y)
+    np.testing.assert_allclose(rls.theta, np.array([0.5, -1.0]) + K * (y - phi @ np.array([0.5, -1.0])))
+    np.testing.assert_allclose(rls.P, (P0 - np.outer(K, phi @ P0)) / lam)
 
 
 def pressed(depth_m: float) -> Simulation:
