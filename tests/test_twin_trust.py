@@ -83,3 +83,58 @@ def test_the_ghosts_own_label_is_short_and_says_unsure() -> None:
     )
     unsure = ghost_label(TwinTrust(False, "STOP sent 2.8 s ago"), "UNSURE: STOP sent 2.8 s ago")
     assert unsure == "predicted · UNSURE (the status bar says why)"
+
+
+def test_stop_drops_the_commands_this_console_sent_from_the_prediction() -> None:
+    """A STOP means this console's queued sends will not run: the twin stops predicting them at
+    once (its next tick), before the robot says anything."""
+    from robot_sim.params import PtwlParams
+    from web.twin import Sent
+
+    twin = GroundTwin(lambda: 0.1)
+    robot = Simulation("free_space")
+    wall = feed(twin, robot, 1000.0, 30)
+    still = twin.advance(wall)
+    assert still is not None
+    move = PtwlParams(translation=[0.0, 0.08, 0.0], frame="base", duration=1.0)
+    twin.on_sent(Sent(move, wall, lambda: True))
+    moving = twin.advance(wall + 0.3)
+    assert moving is not None and moving.port[0][1] - still.port[0][1] > 0.005  # predicted moving
+    twin.on_stop(wall + 0.3)
+    stopped = twin.advance(wall + 0.32)  # the next tick, not the next periodic restart
+    assert stopped is not None and abs(stopped.port[0][1] - still.port[0][1]) < 0.001  # the robot's own
+
+
+def test_a_confirmed_stop_ends_the_replay_of_the_move_it_aborted() -> None:
+    """The running command's event is replayed at each restart until its end is heard; a
+    confirmed STOP that names it ends the replay (its own end event may be lost)."""
+    from robot_sim.params import PtwlParams
+
+    twin = GroundTwin(lambda: 0.1)
+    robot = Simulation("free_space")
+    wall = feed(twin, robot, 1000.0, 30)
+    still = twin.advance(wall)
+    assert still is not None
+    move = PtwlParams(translation=[0.0, 0.08, 0.0], frame="base", duration=1.0)
+    port = robot.state().port
+    goal = {
+        "position": [port.position[0], port.position[1] + 0.08, port.position[2]],
+        "quaternion": list(port.quaternion),
+    }
+    twin.on_command(
+        {
+            "id": 7,
+            "status": "running",
+            "behavior": "ptwl",
+            "params": move.model_dump(),
+            "goal": goal,
+            "started_at": wall,
+        }
+    )
+    twin.pause()  # replayed from the next restart, as at each restart until its end is heard
+    replayed = twin.advance(wall + 0.3)
+    assert replayed is not None and replayed.port[0][1] - still.port[0][1] > 0.005
+    twin.on_stop(wall + 0.3)
+    twin.on_stop_confirmed(7)
+    after = twin.advance(wall + 0.35)
+    assert after is not None and abs(after.port[0][1] - still.port[0][1]) < 0.001
