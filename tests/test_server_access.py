@@ -100,3 +100,20 @@ def test_a_weak_token_refuses_to_start(command: str, token: str) -> None:
     )
     assert result.returncode == 2
     assert "access token must be at least 16 characters with no whitespace" in result.stderr
+
+
+def test_a_token_in_the_query_string_opens_only_a_websocket() -> None:
+    """Browsers cannot set headers on a WebSocket, so there `?token=` stands in for the bearer
+    header; on plain HTTP it is refused (a URL with a secret ends up in logs and histories)."""
+    from guard.access import AccessPolicy
+    from guard.asgi import denial
+
+    policy = AccessPolicy("0.0.0.0", 8000, "s3cret-token-of-enough-length", (), ())
+    host = {"host": "0.0.0.0:8000"}
+    assert denial(policy, host, "token=s3cret-token-of-enough-length", websocket=True) is None
+    refused = denial(policy, host, "token=s3cret-token-of-enough-length", websocket=False)
+    assert refused is not None and refused[0] == 401 and refused[2] == {"www-authenticate": "Bearer"}
+    wrong = denial(policy, host, "token=guess", websocket=True)
+    assert wrong is not None and wrong[0] == 403
+    bearer = {**host, "authorization": "Bearer s3cret-token-of-enough-length"}
+    assert denial(policy, bearer, "", websocket=False) is None

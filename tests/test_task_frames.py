@@ -145,3 +145,23 @@ def test_a_bad_frames_file_names_the_key(tmp_path: "pytest.TempPathFactory") -> 
     path.write_text('[surface.base]\nsite = "plate_top"\n')
     with pytest.raises(ConfigError, match="built-in"):
         load_scene_frames(path)
+
+
+def test_a_scene_frames_offset_is_along_its_own_turned_axes() -> None:
+    """`offset` moves the origin along the frame's axes after `turn`, not along the site's or the
+    base's: a quarter turn about z makes an x offset point along the site's y."""
+    from robot_sim.pose_math import rotation_matrix
+    from robot_sim.task_frames import SceneFrameSpec
+
+    sim = Simulation("free_space")
+    mujoco.mj_forward(sim.model, sim.data)
+    plain = SceneFrameSpec(site="goal").resolve("plain", sim.model, sim.data)
+    turned = SceneFrameSpec(site="goal", turn=[0.0, 0.0, math.pi / 2], offset=[0.1, 0.0, 0.0])
+    frame = turned.resolve("turned", sim.model, sim.data)
+    R_world_site = rotation_matrix(np.asarray(plain.quaternion))
+    expected = np.asarray(plain.position) + R_world_site @ np.array([0.0, 0.1, 0.0])
+    np.testing.assert_allclose(frame.position, expected, atol=1e-12)
+    R_world_frame = rotation_matrix(np.asarray(frame.quaternion))
+    np.testing.assert_allclose(R_world_frame[:, 0], R_world_site[:, 1], atol=1e-12)  # x turned onto y
+    unturned = SceneFrameSpec(site="goal", offset=[0.1, 0.0, 0.0]).resolve("o", sim.model, sim.data)
+    np.testing.assert_allclose(unturned.quaternion, plain.quaternion, atol=1e-12)  # an offset never turns
