@@ -158,6 +158,9 @@ def test_link_profile_is_bounded_and_strict(
     assert httpx.get(open_link.url + "/_link/profile").json() == before
 
 
+RECEIVED = 90  # messages read through the link before it is killed (~2 s of 50 Hz telemetry)
+
+
 def test_link_record_survives_kill_9(tmp_path: Path) -> None:
     """Every message the link had released when asked for its stats is in the record after
     kill -9 (a 64 KiB buffer lost all 311 of them)."""
@@ -170,9 +173,8 @@ def test_link_record_survives_kill_9(tmp_path: Path) -> None:
         async def listen() -> None:
             url = link.url.replace("http://", "ws://") + "/api/telemetry"
             async with websockets.connect(url) as ws:
-                end = time.monotonic() + 2.0
-                while time.monotonic() < end:
-                    await ws.recv()
+                for _ in range(RECEIVED):  # counted, not timed: a loaded machine is slower
+                    await asyncio.wait_for(ws.recv(), timeout=30.0)
 
         asyncio.run(listen())
         released = httpx.get(link.url + "/_link/stats").json()["downlink"]["released"]
@@ -180,7 +182,7 @@ def test_link_record_survives_kill_9(tmp_path: Path) -> None:
         link.process.wait(10)
     lines = [json.loads(line) for line in record.read_text().splitlines()]
     downlink = [r for r in lines if r["direction"] == "downlink" and r["release"] is not None]
-    assert released >= 90  # ~2 s of 50 Hz telemetry
+    assert released >= RECEIVED  # what reached us had been released
     assert len(downlink) >= released
 
 
