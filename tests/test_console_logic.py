@@ -604,7 +604,15 @@ def test_the_ghost_moves_at_once_on_send_and_its_error_is_judged(server: Service
                 moved_after_s = time.monotonic() - sent
                 delayed_port = app.commanding.port()
                 sender.join()
-                time.sleep(4.5)  # the move (2 s) and a round trip for telemetry to show it
+                # Until telemetry shows the move (2 s) done, a round trip later: waited for, not
+                # slept (a loaded machine takes longer).
+                deadline = time.monotonic() + 30.0
+                while time.monotonic() < deadline:
+                    shown = app.commanding.port()
+                    if shown is not None and float(np.linalg.norm(shown[0] - port_at_send[0])) > 0.0375:
+                        break
+                    time.sleep(0.05)
+                time.sleep(0.5)  # and the twin judged against those states
             summary = twin.twin.error_summary()
         finally:
             app.close()

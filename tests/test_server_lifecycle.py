@@ -11,15 +11,20 @@ from ptwl.launcher import ServiceProcess, running_server
 from server.client import RobotClient
 
 
-def test_sim_time_follows_wall_time_within_2_percent_over_10_s(server: ServiceProcess) -> None:
+def test_the_server_paces_its_simulation_to_the_wall_clock(server: ServiceProcess) -> None:
+    """Never ahead of the wall clock (unpaced, this contact scene runs several times faster),
+    and on a machine busy enough to hold it back, still moving. The pacing rule itself is
+    tested on a fake clock (test_cli_and_pacing.py); the real-time factor on a quiet machine,
+    1.000 within 2 % over 10 s, is bench.server's `sim_rtf_while_serving`."""
     with RobotClient(server.url) as robot:
         robot.reset_scene("surface")
         robot.ptwl(translation=[0.0, 0.0, 0.0486], duration=2.0, force_threshold=100.0, watchdog=60.0)
         t0, sim0 = time.monotonic(), robot.health().sim_time
-        time.sleep(10.0)
+        time.sleep(2.0)
         t1, sim1 = time.monotonic(), robot.health().sim_time
         robot.stop()
-    assert (sim1 - sim0) / (t1 - t0) == pytest.approx(1.0, rel=0.02)
+    # Health reads the latest telemetry state: up to one 20 ms period behind at either end.
+    assert 0.5 < (sim1 - sim0) / (t1 - t0) < 1.0 + 0.04 / (t1 - t0) + 0.01
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
