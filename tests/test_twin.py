@@ -1,16 +1,16 @@
 """The ground twin (issue 14's predictive display), on a virtual clock: robot, link and twin as
-the console runs them (web/twin_trial.py), its predictions judged against the telemetry that
+the console runs them (experiments/twin/trial.py), its predictions judged against the telemetry that
 later shows the same instants."""
 
 import numpy as np
 import pytest
 
+from experiments.twin.trial import free_space_moves, run_trial
 from robot_sim.behaviors import behavior_for
 from robot_sim.params import PtwlParams
 from robot_sim.sim import Simulation
 from robot_sim.task_frames import TaskFrame, unit_quaternion
 from web.twin import remaining_ptwl
-from web.twin_trial import free_space_moves, run_trial
 
 
 def test_free_space_prediction_within_2_mm_at_3_s_round_trip() -> None:
