@@ -29,13 +29,17 @@ class ServiceProcess:
     url: str
     process: subprocess.Popen[str]
     output: list[str]
+    pump: threading.Thread | None = None  # reads its output; ends when the child does
 
     @property
     def port(self) -> int:
         return int(self.url.rsplit(":", 1)[1])
 
     def stop(self, sig: int = signal.SIGINT, timeout: float = 15.0) -> int:
-        return _stop(self.process, sig, timeout)
+        code = _stop(self.process, sig, timeout)
+        if self.pump is not None:
+            self.pump.join(timeout=5.0)  # the child's output has ended with it
+        return code
 
 
 @contextmanager
@@ -95,11 +99,12 @@ def start(
                 found.set()
         found.set()  # its output ended: it exited before a URL, and said why; no timeout to wait out
 
-    threading.Thread(target=pump, daemon=True).start()
+    reader = threading.Thread(target=pump, name=f"ptwl-launcher-{ptwl_args[0]}", daemon=True)
+    reader.start()
     try:
         if not found.wait(startup_timeout) or not url:
             raise RuntimeError(f"server did not start: {''.join(output)}")
-        server = ServiceProcess(url[0], process, output)
+        server = ServiceProcess(url[0], process, output, reader)
         deadline = time.monotonic() + startup_timeout
         while True:
             try:
@@ -125,7 +130,7 @@ def running(
     try:
         yield server
     finally:
-        _stop(server.process)
+        server.stop()
 
 
 def _stop(process: "subprocess.Popen[str]", sig: int = signal.SIGINT, timeout: float = 15.0) -> int:

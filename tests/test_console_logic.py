@@ -256,15 +256,22 @@ def test_only_the_seat_holder_sends_and_the_record_says_who(
 
 
 def test_close_stops_every_thread(server: ServiceProcess) -> None:
+    """Not the app's own count only: every thread started meanwhile (the console's loops, its
+    errands, viser's, the launcher's output reader) is gone once the console and the link stop."""
+    before = {thread.ident for thread in threading.enumerate()}
     with running_proxy(server.url) as link:
         app = ConsoleApp(link.url, port=free_port())
         app.connect(timeout=30.0)
         wait_for_state(app)
         assert set(app.threads_running()) == {"status bar", "telemetry", "link poller", "twin"}
+        app.log.reconcile_soon()  # an errand, under way as it closes
         started = time.monotonic()
         app.close()
         assert app.threads_running() == []
         assert time.monotonic() - started < 5.0
+        assert not app.log.errands.run("ptwl-late", lambda: None)  # closed: nothing starts
+    left = [t.name for t in threading.enumerate() if t.ident not in before and t.is_alive()]
+    assert left == []
 
 
 def test_console_refuses_a_non_loopback_bind() -> None:

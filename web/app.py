@@ -177,7 +177,8 @@ class ConsoleApp:
         return [name for name, part in parts if part is not None and part.running]
 
     def close(self) -> None:
-        self._closed = self.log.closed = self.scene.closed = self.desks.closed = True
+        self._closed = self.log.closed = self.scene.closed = True
+        self.desks.close()
         self.link.close()
         for part in (
             self.status.bar,
@@ -187,6 +188,8 @@ class ConsoleApp:
         ):
             if part is not None:
                 part.close()
+        for errands in (self.log.errands, self.scene.errands):
+            errands.close()
         # viser first, while the front door still carries its close handshake to the browsers:
         # closed the other way round, viser waited out its close timeout (6 s) on pipes nobody
         # read any more.

@@ -11,6 +11,7 @@ import httpx
 
 from server.client import RobotClient, RobotError
 from web.board import Board
+from web.errands import Errands
 from web.history import CommandHistory, CommandView
 from web.notifier import Notifier, exit_color
 from web.robot_view import RobotView
@@ -24,6 +25,7 @@ class CommandLog:
         self.commanded: CommandView | None = None  # the last PTWL this console sent
         self.restart_note = ""  # e.g. " · robot restarted at 12:00:01"
         self.closed = False
+        self.errands = Errands()
         self._client, self._board, self._view, self._notifier = client, board, view, notifier
         self._reconciling = threading.Lock()
 
@@ -114,8 +116,10 @@ class CommandLog:
     # ------------------------------------------------- the robot's records
     def reconcile_soon(self) -> None:
         """Re-read the robot's records in the background (at most one re-read at a time)."""
-        if self._reconciling.acquire(blocking=False):
-            threading.Thread(target=self._reconcile, name="ptwl-reconcile", daemon=True).start()
+        if self._reconciling.acquire(blocking=False) and not self.errands.run(
+            "ptwl-reconcile", self._reconcile
+        ):
+            self._reconciling.release()  # closed: nothing more is read
 
     def _reconcile(self) -> None:
         try:

@@ -10,6 +10,7 @@ from typing import Any
 
 import viser
 
+from web.errands import Errands
 from web.markup import show
 from web.panel_html import preview_html
 from web.preview import PreviewResult
@@ -32,6 +33,7 @@ class DeskPreview:
         self._shown: tuple[PreviewResult | None, str] = (None, "")
         self._generation = 0  # counts previews asked and clears: a late result is dropped
         self._lock = threading.Lock()  # one at a time
+        self.errands = Errands()
 
     def ask(self, request: dict[str, Any]) -> None:
         """(a click) Preview `request` on its own thread."""
@@ -49,7 +51,8 @@ class DeskPreview:
             finally:
                 self._lock.release()
 
-        threading.Thread(target=run, name="ptwl-preview", daemon=True).start()
+        if not self.errands.run("ptwl-preview", run):
+            self._lock.release()  # the console closed: no preview runs
 
     def now(self, request: dict[str, Any], generation: int | None = None) -> None:
         """(the preview's thread, or a test) Run `request` and show how it ends, unless a send or

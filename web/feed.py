@@ -15,6 +15,7 @@ from websockets.exceptions import ConnectionClosed, InvalidStatus
 
 from robot_sim.telemetry import FramesMirror
 from server.client import RobotClient
+from web.errands import Errands
 from web.worker import Worker
 
 RECONNECT_S = 1.0
@@ -43,6 +44,7 @@ class TelemetryFeed(Worker):
         self._frames_lock = threading.RLock()  # the reading thread and a refetch both update it
         self._refetching = False
         self.frames_refetches = 0  # whole lists fetched because a change was lost
+        self.errands = Errands()
 
     def _run(self) -> None:
         while not self._closed.is_set():
@@ -91,6 +93,10 @@ class TelemetryFeed(Worker):
         if behind:
             self._refetch_frames(rev)
 
+    def close(self) -> None:
+        super().close()
+        self.errands.close()
+
     def _refetch_frames(self, rev: int) -> None:
         """Fetch the whole list (GET /api/frames), one fetch at a time; a later state asks again
         if the link lost more meanwhile."""
@@ -99,7 +105,9 @@ class TelemetryFeed(Worker):
                 return
             self._refetching = True
             self.frames_refetches += 1
-        threading.Thread(target=self._refetch, args=(rev,), name="ptwl-frames-refetch", daemon=True).start()
+        if not self.errands.run("ptwl-frames-refetch", self._refetch, rev):
+            with self._frames_lock:
+                self._refetching = False
 
     def _refetch(self, rev: int) -> None:
         try:

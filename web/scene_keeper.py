@@ -2,7 +2,6 @@
 and when telemetry names a scene someone else loaded; until it is drawn, the status bar says a
 reset is on its way or a scene is being drawn (`note`)."""
 
-import threading
 import time
 from collections.abc import Callable
 
@@ -13,6 +12,7 @@ from server.client import RobotError
 from server.models import GeometryModel
 from web.board import Board
 from web.command_log import CommandLog
+from web.errands import Errands
 from web.ghost import GhostView
 from web.known_frames import KnownFrames
 from web.notifier import Notifier
@@ -38,6 +38,7 @@ class SceneKeeper:
         self.name = ""
         self.note = ""  # a reset on its way, or a new scene not drawn yet
         self.closed = False
+        self.errands = Errands()
 
     def met_robot(self, geometry: GeometryModel, differences: list[str]) -> None:
         """(handshake thread) The robot answered: draw its scene; say if its catalog differs."""
@@ -72,7 +73,7 @@ class SceneKeeper:
             return
         self.name = scene
         self.note = f"drawing the {scene} scene"
-        threading.Thread(target=self._draw_new, daemon=True).start()
+        self.errands.run("ptwl-draw-scene", self._draw_new)
 
     def draw(self, geometry: GeometryModel | None = None) -> None:
         """The one path that (re)draws the scene's bodies: at start, after a reset, on a new scene."""

@@ -53,7 +53,8 @@ class LinkedOperator:
         self.inbox: queue.SimpleQueue[Accepted | Status | Done] = queue.SimpleQueue()
         self.ids: dict[str, int] = {}
         self._pool = ThreadPoolExecutor(max_workers=4)  # a request takes a round trip
-        threading.Thread(target=self._listen, daemon=True).start()
+        self._listener = threading.Thread(target=self._listen, name="sweep-link-listener", daemon=True)
+        self._listener.start()
 
     def _listen(self) -> None:
         try:
