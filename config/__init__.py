@@ -11,6 +11,12 @@ from pydantic import ValidationError
 CONFIG_DIR_ENV = "PTWL_CONFIG_DIR"
 
 
+class ConfigError(ValueError):
+    """A configuration that cannot work: a config file that does not validate, or a setting
+    (a command-line option, an environment variable) that cannot be made safe. The message names
+    the file and key or the option, and says what to do. The project's one ConfigError."""
+
+
 def config_dir() -> Path:
     """config/ of this installation, or $PTWL_CONFIG_DIR (every reader of a config file asks here)."""
     override = os.environ.get(CONFIG_DIR_ENV)
@@ -21,8 +27,6 @@ def config_dir() -> Path:
 
 def read_toml(path: Path) -> dict[str, Any]:
     """A config file's tables; ConfigError names the file when it cannot be read or parsed."""
-    from robot_sim.errors import ConfigError
-
     try:
         return tomllib.loads(path.read_text())
     except OSError as err:

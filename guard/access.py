@@ -17,12 +17,10 @@ import socket
 from dataclasses import dataclass, field
 from urllib.parse import urlsplit
 
+from ptwl_config import ConfigError
+
 MIN_TOKEN_CHARS = 16
 LOOPBACK_NAMES = frozenset({"127.0.0.1", "localhost", "::1"})
-
-
-class AccessConfigError(ValueError):
-    """A setting that cannot be made safe; the message says what to do."""
 
 
 def is_loopback(host: str) -> bool:
@@ -41,13 +39,13 @@ def check_token_setting(token: str | None, bind_host: str) -> None:
     """Refuse a non-loopback bind without a token, and a token too short or blank to mean anything."""
     if token is None:
         if not is_loopback(bind_host):
-            raise AccessConfigError(
+            raise ConfigError(
                 f"refusing to bind {bind_host}: a non-loopback address needs an access token "
                 "(--token or PTWL_TOKEN)"
             )
         return
     if len(token) < MIN_TOKEN_CHARS or any(c.isspace() for c in token):
-        raise AccessConfigError(
+        raise ConfigError(
             f"access token must be at least {MIN_TOKEN_CHARS} characters with no whitespace "
             f"(got {len(token)}); e.g. python -c 'import secrets; print(secrets.token_urlsafe(24))'"
         )

@@ -45,7 +45,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_replay_serve(args: argparse.Namespace) -> int:
-    from recording.replay.serve import serve_replay
+    from server.replay.serve import serve_replay
 
     _check_file(args.file)
     serve_replay(args.file, args.host, args.port, play=not args.paused, speed=args.speed)

@@ -72,9 +72,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
     settings = settings_from(args, sys.argv[1:])
     if args.realtime:
-        from experiments.sweep.realtime import cross_check
-
-        return cross_check(settings)
+        return realtime(settings)
     try:
         rows = run_sweep(settings)
     except KeyboardInterrupt:
@@ -122,3 +120,20 @@ def add_sweep_parser(sub: "argparse._SubParsersAction[argparse.ArgumentParser]")
         help="one grid point through the real `ptwl serve` and `ptwl proxy`, against virtual time",
     )
     sweep.set_defaults(func=cmd_sweep)
+
+
+def realtime(settings: SweepSettings) -> int:
+    """--realtime: the grid point through a real robot and link, against virtual time."""
+    from experiments.sweep.realtime import NotOneGridPoint, cross_check, link_delays
+    from ptwl.launcher import running_proxy, running_server
+
+    try:
+        delays = link_delays(settings)
+    except NotOneGridPoint as err:
+        print(f"ptwl sweep: {err}", file=sys.stderr)
+        return 2
+    with (
+        running_server("--scene", settings.task) as robot,
+        running_proxy(robot.url, *delays) as link,
+    ):
+        return cross_check(settings, robot.url, link.url)

@@ -1,7 +1,12 @@
 """The one root exception of robot_sim, and its kinds.
 
-Routes (server/) turn these into HTTP errors; robot_sim itself never knows about HTTP.
+Routes (server/) turn these into HTTP errors; robot_sim itself never knows about HTTP. A bad
+configuration file is the project's one ConfigError (ptwl_config), raised here too.
 """
+
+from ptwl_config import ConfigError
+
+__all__ = ["ConfigError", "RobotSimError", "SimulationFault", "UnknownNameError"]
 
 
 class RobotSimError(Exception):
@@ -19,10 +24,6 @@ class UnknownNameError(RobotSimError, KeyError):
 
     def __str__(self) -> str:  # KeyError would repr() the message
         return str(self.args[0])
-
-
-class ConfigError(RobotSimError, ValueError):
-    """A configuration file that does not validate; names the file, the key and the problem."""
 
 
 class SimulationFault(RobotSimError):

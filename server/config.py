@@ -4,7 +4,9 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from guard.access import AccessConfigError, AccessPolicy, check_token_setting, is_loopback
+from ptwl_config import ConfigError  # a setting that cannot work; the message says what to do
+
+from guard.access import AccessPolicy, check_token_setting, is_loopback
 from guard.body_limit import BODY_LIMIT_BYTES
 from recording.paths import check_record_path
 from robot_sim.limits import SENT_AT_SKEW_S
@@ -19,8 +21,6 @@ def default_data_dir() -> Path:
     state_home = os.environ.get("XDG_STATE_HOME") or str(Path.home() / ".local" / "state")
     return Path(state_home) / "ptwl"
 
-
-ConfigError = AccessConfigError  # a setting that cannot work; the message says what to do
 
 __all__ = ["BODY_LIMIT_BYTES", "ConfigError", "ServerConfig", "is_loopback"]
 

@@ -3,7 +3,6 @@
 Domain errors become HTTP errors here and only here (STYLE 4).
 """
 
-import re
 from typing import Any
 
 from fastapi import FastAPI, Request
@@ -13,49 +12,9 @@ from fastapi.routing import APIRoute
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from robot_sim.command_book import FutureSentAtError, QueueFullError
+from robot_sim.command_request import error_detail, field_errors
 from robot_sim.errors import UnknownNameError
 from server.commands import IdRecordError
-
-_TAGS = {"ptwl", "rwe", "dither"}
-
-
-# pydantic's label for a validator-wrapped union member (`function-after[_pose_in_reach(),
-# TypedPose]`): not a field, so `pose.quaternion` reads as the client wrote it.
-_WRAPPER = re.compile(r"^function-(after|before|wrap|plain)\[.*\]$")
-
-
-def _field(loc: tuple[Any, ...]) -> str:
-    """`body.ptwl.duration` -> `duration`; list indices as `translation[1]`."""
-    parts = [
-        p for p in loc if p not in ("body", "query", "path") and p not in _TAGS and not _WRAPPER.match(str(p))
-    ]
-    text = ""
-    for part in parts:
-        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
-    return text or "body"
-
-
-def _message(err: dict[str, Any]) -> str:
-    msg = str(err.get("msg", "invalid")).removeprefix("Value error, ")
-    if err.get("type") == "json_invalid":
-        ctx = err.get("ctx") or {}
-        return f"malformed JSON: {ctx.get('error', msg)}"
-    if err.get("type") == "union_tag_invalid":
-        return msg + " (field `type`)"
-    return msg
-
-
-def field_errors(errors: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Pydantic errors as the API reports them: `{"field", "message", "type"}` each (also used by
-    the console to check a command before sending it)."""
-    return [
-        {"field": _field(tuple(e.get("loc", ()))), "message": _message(e), "type": e.get("type")}
-        for e in errors
-    ]
-
-
-def error_detail(items: list[dict[str, Any]]) -> str:
-    return "; ".join(f"{i['field']}: {i['message']}" for i in items)
 
 
 def validation_response(errors: list[dict[str, Any]]) -> JSONResponse:

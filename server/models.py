@@ -12,19 +12,11 @@ from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Fie
 from robot_sim.errors import UnknownNameError
 from robot_sim.limits import MAX_SEED
 from robot_sim.params import (
-    DitherParams,
     FrameName,
-    GripperParams,
-    PtwlParams,
-    RweParams,
-    StateMachineParams,
 )
 from robot_sim.scenes import SCENES, get_scene
 from robot_sim.task_frames import MAX_OPERATOR_FRAMES, unit_quaternion
 
-Command = Annotated[
-    PtwlParams | RweParams | DitherParams | GripperParams | StateMachineParams, Field(discriminator="type")
-]
 CommandState = Literal["queued", "running", "done"]
 
 

@@ -21,6 +21,7 @@ import server.commands
 from ptwl.cli import main as ptwl_main
 from ptwl.launcher import ServiceProcess, running_server
 from robot_sim.command_book import FutureSentAtError
+from robot_sim.command_request import field_errors
 from robot_sim.params import (
     DitherParams,
     GripperParams,
@@ -32,7 +33,6 @@ from robot_sim.params import (
 from robot_sim.task_frames import unit_quaternion
 from server.client import RobotClient
 from server.commands import ID_BLOCK, CommandBook, CommandIds
-from server.errors import field_errors
 from server.models import ActiveGainsModel, FrameRequest, SceneRequest, TypedPose
 from tests.fake_clock import FakeClock
 

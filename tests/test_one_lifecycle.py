@@ -10,15 +10,14 @@ from collections.abc import Callable
 from typing import Any
 
 import httpx
-from pydantic import TypeAdapter
 
 from experiments.sweep.robot import Post, VirtualRobot
 from ptwl.launcher import running_server
 from robot_sim.command_book import CommandRecord, QueueFullError
+from robot_sim.command_request import COMMAND
 from robot_sim.executor import CommandParams
 from robot_sim.limits import COMMAND_QUEUE_MAX
 from server.commands import status_model
-from server.models import Command
 
 SCENE = "free_space"
 # (what to send, as the API's JSON; whether it carries sent_at and a max_age of 0.3 s)
@@ -27,7 +26,6 @@ LONG = {"type": "rwe", "duration": 4.0}
 STALE_AFTER_S = 0.3  # the second command waits behind the first's 0.5 s: expired at its start
 
 Row = tuple[str, str, str | None, str]
-COMMAND: TypeAdapter[CommandParams] = TypeAdapter(Command)
 
 
 def normalized(detail: str) -> str:

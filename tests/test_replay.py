@@ -16,9 +16,9 @@ from experiments.sweep.trial import simulate
 from guard.access import AccessPolicy
 from ptwl.launcher import free_port, running
 from recording.reader import read
-from recording.replay.app import KEEPALIVE_S, create_replay_app
 from recording.replay.player import Player
 from recording.replay.timeline import Timeline
+from server.replay.app import KEEPALIVE_S, create_replay_app
 from tests.console_page import port_mm
 from tests.fake_clock import FakeClock
 

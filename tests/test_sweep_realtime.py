@@ -7,14 +7,19 @@ from pathlib import Path
 
 import pytest
 
-from experiments.sweep.realtime import cross_check
+from experiments.sweep.realtime import NotOneGridPoint, cross_check, link_delays
 from experiments.sweep.spec import SweepSettings
+from ptwl.launcher import running_proxy, running_server
 
 
 def test_a_ground_trial_through_the_real_link_takes_the_virtual_task_time(tmp_path: Path) -> None:
     settings = SweepSettings("quick_connect", [0.5], 1, ["ground"], str(tmp_path), think_s=0.5)
     out = io.StringIO()
-    status = cross_check(settings, out)
+    with (
+        running_server("--scene", settings.task) as robot,
+        running_proxy(robot.url, *link_delays(settings)) as link,
+    ):
+        status = cross_check(settings, robot.url, link.url, out)
     text = out.getvalue()
     found = re.search(r"mean task time ([\d.]+) s in real time, ([\d.]+) s in virtual time", text)
     assert found, text
@@ -27,7 +32,13 @@ def test_a_ground_trial_through_the_real_link_takes_the_virtual_task_time(tmp_pa
 
 
 def test_realtime_runs_one_plain_grid_point(tmp_path: Path) -> None:
-    with pytest.raises(SystemExit, match="one --rtt and one --operator"):
-        cross_check(SweepSettings("lid", [0.0, 1.0], 1, ["ground"], str(tmp_path)))
-    with pytest.raises(SystemExit, match="leave out --jitter"):
-        cross_check(SweepSettings("lid", [1.0], 1, ["ground"], str(tmp_path), jitter_s=0.1))
+    with pytest.raises(NotOneGridPoint, match="one --rtt and one --operator"):
+        link_delays(SweepSettings("lid", [0.0, 1.0], 1, ["ground"], str(tmp_path)))
+    with pytest.raises(NotOneGridPoint, match="leave out --jitter"):
+        link_delays(SweepSettings("lid", [1.0], 1, ["ground"], str(tmp_path), jitter_s=0.1))
+    assert link_delays(SweepSettings("lid", [1.0], 1, ["ground"], str(tmp_path))) == [
+        "--uplink",
+        "0.5",
+        "--downlink",
+        "0.5",
+    ]

@@ -7,17 +7,14 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from pydantic import TypeAdapter, ValidationError
+from pydantic import ValidationError
 
+from robot_sim.command_request import COMMAND, error_detail, field_errors
+from robot_sim.executor import CommandParams
 from robot_sim.gains import Gains
 from robot_sim.impact import impact_warnings
 from robot_sim.params import PtwlParams
 from robot_sim.task_frames import TaskFrames
-from server.commands import CommandParams
-from server.errors import error_detail, field_errors
-from server.models import Command
-
-_COMMAND: TypeAdapter[CommandParams] = TypeAdapter(Command)
 
 
 @dataclass(frozen=True)
@@ -42,7 +39,7 @@ def check_command(
     frames: TaskFrames,
 ) -> Check:
     try:
-        validated = _COMMAND.validate_python({"type": behavior, **params})
+        validated = COMMAND.validate_python({"type": behavior, **params})
     except ValidationError as err:
         return _refused(field_errors(list(err.errors())))  # type: ignore[arg-type]
     unknown_frames = frames.unknown_errors(validated)

@@ -21,7 +21,6 @@ from experiments.sweep.operators import Operator, operator_for
 from experiments.sweep.robot import Accepted, Done, Post, Request, Status
 from experiments.sweep.spec import SweepSettings, TrialSpec
 from experiments.sweep.trial import MAX_TRIAL_S, run_trial
-from ptwl.launcher import ServiceProcess, running_proxy, running_server
 from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
 from server.client import RobotClient, RobotError
 
@@ -99,13 +98,13 @@ class LinkedOperator:
         self.client.close()
 
 
-def run_real(spec: TrialSpec, robot: ServiceProcess, link: ServiceProcess) -> dict[str, Any]:
+def run_real(spec: TrialSpec, robot_url: str, link_url: str) -> dict[str, Any]:
     """One trial on the real system; its task time from the robot's records."""
-    with RobotClient(robot.url) as direct:
+    with RobotClient(robot_url) as direct:
         direct.reset_scene(spec.task, spec.seed)
         port = direct.state().port
     prefix = f"rt{spec.seed}-{time.time_ns()}-"
-    carrier = LinkedOperator(link.url, prefix)
+    carrier = LinkedOperator(link_url, prefix)
     time.sleep(0.3 + spec.rtt_s / 2.0)  # the telemetry socket is open before the first send
     operator: Operator = operator_for(spec)
     t0 = time.monotonic()
@@ -128,7 +127,7 @@ def run_real(spec: TrialSpec, robot: ServiceProcess, link: ServiceProcess) -> di
         while (wake := operator.wake_at) is not None and wake <= now():
             carrier.send(operator.on_wake(now()))
     carrier.close()
-    with RobotClient(robot.url) as direct:
+    with RobotClient(robot_url) as direct:
         records = [c for c in direct.commands(limit=100) if (c.sender or "").startswith(prefix)]
         success = direct.task().success
     starts = [c.started_at for c in records if c.started_at is not None]
@@ -142,22 +141,31 @@ def run_real(spec: TrialSpec, robot: ServiceProcess, link: ServiceProcess) -> di
     }
 
 
-def cross_check(settings: SweepSettings, out: Any = sys.stdout) -> int:
-    """Run the grid point in real time and in virtual time; 0 if the mean task times agree."""
-    specs = settings.specs()
+class NotOneGridPoint(ValueError):
+    """The real-time cross-check runs one grid point on a plain link."""
+
+
+def link_delays(settings: SweepSettings) -> list[str]:
+    """The proxy's arguments for the grid point: its round trip split evenly; NotOneGridPoint if
+    the settings name more than one point or a link that is not plain."""
     if len(settings.rtts_s) != 1 or len(settings.operators) != 1:
-        raise SystemExit("--realtime runs one grid point: give one --rtt and one --operator")
+        raise NotOneGridPoint("--realtime runs one grid point: give one --rtt and one --operator")
     if settings.jitter_s or settings.loss or settings.profile:
-        raise SystemExit("--realtime runs a plain link: leave out --jitter, --loss and --profile")
+        raise NotOneGridPoint("--realtime runs a plain link: leave out --jitter, --loss and --profile")
     half = f"{settings.rtts_s[0] / 2.0:g}"
+    return ["--uplink", half, "--downlink", half]
+
+
+def cross_check(settings: SweepSettings, robot_url: str, link_url: str, out: Any = sys.stdout) -> int:
+    """Run the grid point in real time, on a robot (`ptwl serve`, scene settings.task) behind a
+    link delaying as link_delays(settings) says, and in virtual time; 0 if the mean task times
+    agree. The caller starts both (ptwl sweep --realtime: ptwl/launcher.py)."""
+    specs = settings.specs()
+    link_delays(settings)
     real = []
-    with (
-        running_server("--scene", settings.task) as robot,
-        running_proxy(robot.url, "--uplink", half, "--downlink", half) as link,
-    ):
-        for spec in specs:
-            real.append(run_real(spec, robot, link))
-            print(f"real time: seed {spec.seed}: task time {real[-1]['task_time_s']:.2f} s", file=out)
+    for spec in specs:
+        real.append(run_real(spec, robot_url, link_url))
+        print(f"real time: seed {spec.seed}: task time {real[-1]['task_time_s']:.2f} s", file=out)
     virtual = [run_trial(spec) for spec in specs]
     mean_real = statistics.fmean(r["task_time_s"] for r in real)
     mean_virtual = statistics.fmean(r["task_time_s"] for r in virtual)

@@ -1,1 +1,2 @@
-"""`ptwl replay`: a recording served to the console as if it were the robot."""
+"""A recording read for replay: its timeline (bounded memory) and the player's clock; the robot
+that serves it is server/replay/."""

@@ -6,6 +6,7 @@ from fastapi import APIRouter, Body, Header, HTTPException, Query, Request, stat
 from fastapi.exceptions import RequestValidationError
 
 from guard.disconnect import client_gone
+from robot_sim.command_request import Command
 from robot_sim.params import GripperParams, PtwlParams, StateMachineParams
 from robot_sim.ptwl_warnings import ptwl_warnings
 from server.models import (
@@ -15,7 +16,6 @@ from server.models import (
     SENDER_PATTERN,
     SIM_RESPONSES,
     SUBMIT_RESPONSES,
-    Command,
     CommandAccepted,
     CommandStatus,
     StopResult,

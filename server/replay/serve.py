@@ -7,9 +7,9 @@ import uvicorn
 
 from guard.access import AccessPolicy, check_token_setting
 from guard.listen import bind
-from recording.replay.app import create_replay_app
 from recording.replay.player import Player
 from recording.replay.timeline import Timeline
+from server.replay.app import create_replay_app
 
 
 def load(path: Path) -> Timeline:
