@@ -20,7 +20,6 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from robot_sim.behaviors import BehaviorReport
-from robot_sim.behaviors.base import Pose
 from robot_sim.command_book import CommandBook as Book
 from robot_sim.command_book import CommandRecord, Listener
 from robot_sim.executor import CommandParams
@@ -210,23 +209,6 @@ class CommandBook:
     def submit(self, params: CommandParams, sender: str | None = None) -> CommandRecord:
         with self._lock:
             return self._book.submit(params, sender)
-
-    def start_next(
-        self,
-        start: Callable[[CommandRecord], Pose | None],
-        sim_time_s: float,
-        cannot_start: Callable[[CommandParams], str | None] = lambda params: None,
-    ) -> CommandRecord | None:
-        with self._lock:
-            return self._book.start_next(start, sim_time_s, cannot_start)
-
-    def finish(self, report: BehaviorReport) -> CommandRecord | None:
-        with self._lock:
-            return self._book.finish(report)
-
-    def step_done(self, step: StepRecord) -> None:
-        with self._lock:
-            self._book.step_done(step)
 
     def get(self, command_id: int) -> CommandStatus | None:
         with self._lock:

@@ -99,10 +99,12 @@ def test_a_faulted_command_is_a_valid_record_for_every_reader(server: ServicePro
 def test_non_finite_report_fields_become_null_with_a_reason(value: float) -> None:
     book = CommandBook(4, 10)
     record = book.submit(RweParams(duration=0.01))
-    book.start_next(lambda record: None, 0.0)
+    with book.held() as held:
+        held.start_next(lambda record: None, 0.0)
     real = Simulation("free_space").run_behavior(behavior_for(RweParams(duration=0.01)))
     poisoned = dataclasses.replace(real, final_wrench=(0.0, value, 0.0, 0.0, 0.0, 0.0), peak_force=value)
-    book.finish(poisoned)
+    with book.held() as held:
+        held.finish(poisoned)
     model = book.get(record.id)
     assert model is not None
     assert model.final_wrench is None and model.peak_force is None
@@ -113,12 +115,14 @@ def test_non_finite_report_fields_become_null_with_a_reason(value: float) -> Non
 def test_a_state_machine_step_that_faulted_is_valid_json_too() -> None:
     book = CommandBook(4, 10)
     record = book.submit(StateMachineParams(task="sleeve_on_peg"))
-    book.start_next(lambda record: None, 0.0)
+    with book.held() as held:
+        held.start_next(lambda record: None, 0.0)
     real = Simulation("free_space").run_behavior(behavior_for(RweParams(duration=0.01)))
     nan = dataclasses.replace(
         real, final_wrench=(math.nan,) * 6, peak_force=math.inf, exit=ExitCondition.FAULT
     )
-    book.step_done(StepRecord(0, RweParams(duration=0.01), "relieve", nan))
+    with book.held() as held:
+        held.step_done(StepRecord(0, RweParams(duration=0.01), "relieve", nan))
     model = book.get(record.id)
     assert model is not None and model.status == "running" and len(model.steps) == 1
     step = model.steps[0]

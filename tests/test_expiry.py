@@ -19,7 +19,8 @@ from server.commands import CommandBook
 def started_by(book: CommandBook, sim_time_s: float) -> list[int]:
     """Start what is due at `sim_time_s`; the ids `start` was called for."""
     calls: list[int] = []
-    book.start_next(lambda record: calls.append(record.id), sim_time_s)  # type: ignore[func-returns-value]
+    with book.held() as held:
+        held.start_next(lambda record: calls.append(record.id), sim_time_s)  # type: ignore[func-returns-value]
     return calls
 
 

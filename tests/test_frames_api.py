@@ -123,7 +123,8 @@ def test_a_command_whose_frame_is_gone_at_its_turn_ends_aborted_and_the_next_run
     gone = book.submit(PtwlParams(frame="brief"))
     fine = book.submit(PtwlParams(frame="base"))
     frames.remove("brief", [])
-    started = book.start_next(lambda record: None, 0.0, frames.missing_reason)
+    with book.held() as held:
+        started = held.start_next(lambda record: None, 0.0, frames.missing_reason)
     assert started is not None and started.id == fine.id
     record = book.get(gone.id)
     assert record is not None and record.exit == "aborted" and record.started_at is None

@@ -294,7 +294,8 @@ def test_a_sent_at_ahead_of_the_robot_by_more_than_the_skew_is_refused() -> None
     assert book.queued_count() == 1 and book.get(edge.id) is not None
     # ...and it still expires by its age on the robot's clock: 1 s after the sender's stamp.
     clock.now += 6.5
-    book.start_next(lambda record: None, 0.0)
+    with book.held() as held:
+        held.start_next(lambda record: None, 0.0)
     status = book.get(edge.id)
     assert status is not None and status.exit == "expired"
 
