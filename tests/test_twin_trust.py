@@ -4,9 +4,10 @@ still saying "off 0.0 mm"; after STOP it drew the aborted move going on."""
 
 import pytest
 
+from robot_sim.params import PtwlParams
 from robot_sim.sim import Simulation
 from robot_sim.telemetry import state_fields
-from web.twin import GroundTwin
+from web.twin import GroundTwin, Prediction, Sent
 from web.twin_trust import JUDGED_WITHIN_S, LAG_LIMIT_S, TwinTrust, ghost_label, judge_twin, twin_readout
 
 
@@ -85,19 +86,25 @@ def test_the_ghosts_own_label_is_short_and_says_unsure() -> None:
     assert unsure == "predicted · UNSURE (the status bar says why)"
 
 
-def test_stop_drops_the_commands_this_console_sent_from_the_prediction() -> None:
-    """A STOP means this console's queued sends will not run: the twin stops predicting them at
-    once (its next tick), before the robot says anything."""
-    from robot_sim.params import PtwlParams
-    from web.twin import Sent
+MOVE = PtwlParams(translation=[0.0, 0.08, 0.0], frame="base", duration=1.0)  # 80 mm along base y
 
+
+def settled_twin() -> tuple[GroundTwin, Simulation, float, Prediction]:
+    """A twin fed 0.6 s of a robot at rest: (twin, robot, wall clock, its prediction now)."""
     twin = GroundTwin(lambda: 0.1)
     robot = Simulation("free_space")
     wall = feed(twin, robot, 1000.0, 30)
     still = twin.advance(wall)
     assert still is not None
-    move = PtwlParams(translation=[0.0, 0.08, 0.0], frame="base", duration=1.0)
-    twin.on_sent(Sent(move, wall, lambda: True))
+    return twin, robot, wall, still
+
+
+def test_stop_drops_the_commands_this_console_sent_from_the_prediction() -> None:
+    """A STOP means this console's queued sends will not run: the twin stops predicting them at
+    once (its next tick), before the robot says anything."""
+
+    twin, _, wall, still = settled_twin()
+    twin.on_sent(Sent(MOVE, wall, lambda: True))
     moving = twin.advance(wall + 0.3)
     assert moving is not None and moving.port[0][1] - still.port[0][1] > 0.005  # predicted moving
     twin.on_stop(wall + 0.3)
@@ -108,14 +115,7 @@ def test_stop_drops_the_commands_this_console_sent_from_the_prediction() -> None
 def test_a_confirmed_stop_ends_the_replay_of_the_move_it_aborted() -> None:
     """The running command's event is replayed at each restart until its end is heard; a
     confirmed STOP that names it ends the replay (its own end event may be lost)."""
-    from robot_sim.params import PtwlParams
-
-    twin = GroundTwin(lambda: 0.1)
-    robot = Simulation("free_space")
-    wall = feed(twin, robot, 1000.0, 30)
-    still = twin.advance(wall)
-    assert still is not None
-    move = PtwlParams(translation=[0.0, 0.08, 0.0], frame="base", duration=1.0)
+    twin, robot, wall, still = settled_twin()
     port = robot.state().port
     goal = {
         "position": [port.position[0], port.position[1] + 0.08, port.position[2]],
@@ -126,7 +126,7 @@ def test_a_confirmed_stop_ends_the_replay_of_the_move_it_aborted() -> None:
             "id": 7,
             "status": "running",
             "behavior": "ptwl",
-            "params": move.model_dump(),
+            "params": MOVE.model_dump(),
             "goal": goal,
             "started_at": wall,
         }
