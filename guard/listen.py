@@ -23,3 +23,15 @@ def bind(host: str, port: int) -> socket.socket:
     sock.listen(128)
     sock.set_inheritable(True)
     return sock
+
+
+def http_url(host: str, port: int) -> str:
+    """The URL of a server listening on (host, port), an IPv6 address in brackets."""
+    shown = f"[{host}]" if ":" in host else host
+    return f"http://{shown}:{port}"
+
+
+def listening_url(sock: socket.socket) -> str:
+    """The URL of the address a bound socket listens on (the port chosen for port 0)."""
+    host, port = sock.getsockname()[0:2]
+    return http_url(host, port)

@@ -7,7 +7,7 @@ from pathlib import Path
 import uvicorn
 
 from guard.access import AccessPolicy, check_token_setting
-from guard.listen import bind
+from guard.listen import bind, listening_url
 from latency.link import Link
 from latency.named import named_profile
 from latency.profile import LinkProfile
@@ -39,11 +39,11 @@ def serve_proxy(config: ProxyConfig) -> None:
     profile = config.initial_profile()
     recorder = open_recorder(config.record) if config.record else None
     sock = bind(config.host, config.port)
-    host, port = sock.getsockname()[0:2]
+    port = sock.getsockname()[1]
     access = AccessPolicy(config.host, port, config.token, config.allow_hosts, config.allow_origins)
     proxy = LinkProxy(config.upstream, Link(profile, recorder=recorder), access)
     print(
-        f"ptwl proxy: link on http://{host}:{port} -> {config.upstream} "
+        f"ptwl proxy: link on {listening_url(sock)} -> {config.upstream} "
         f"(uplink {profile.uplink:g} s, downlink {profile.downlink:g} s)",
         flush=True,
     )

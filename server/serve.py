@@ -5,7 +5,7 @@ from dataclasses import replace
 
 import uvicorn
 
-from guard.listen import bind
+from guard.listen import bind, listening_url
 from server.app import create_app
 from server.config import ServerConfig
 
@@ -13,10 +13,9 @@ from server.config import ServerConfig
 def serve(config: ServerConfig) -> None:
     config.check()
     sock = bind(config.host, config.port)
-    host, port = sock.getsockname()[0:2]
-    shown = f"[{host}]" if ":" in host else host
+    port = sock.getsockname()[1]
     print(
-        f"ptwl serve: robot server on http://{shown}:{port} "
+        f"ptwl serve: robot server on {listening_url(sock)} "
         f"(scene {config.scene}, telemetry {config.telemetry_hz:g} Hz, "
         f"{'token required' if config.token else 'no token: loopback only'})",
         flush=True,

@@ -133,3 +133,17 @@ def test_console_socket_refuses_a_foreign_origin(stack: tuple[ServiceProcess, ..
         page = httpx.get(console.url + "/", headers={"Host": f"evil.example:{port}"})
         assert page.status_code == 400
         assert httpx.get(console.url + "/").status_code == 200  # the page itself still loads
+
+
+def test_every_server_says_its_url_one_way_with_ipv6_in_brackets() -> None:
+    """The robot, the link, the replay and the console print the URL they listen on through one
+    function (the link's own copy printed http://::1:8001, which no client can open)."""
+    from guard.listen import bind, http_url, listening_url
+
+    assert http_url("::1", 8001) == "http://[::1]:8001"
+    assert http_url("127.0.0.1", 8000) == "http://127.0.0.1:8000"
+    sock = bind("127.0.0.1", 0)
+    try:
+        assert listening_url(sock) == f"http://127.0.0.1:{sock.getsockname()[1]}"
+    finally:
+        sock.close()

@@ -6,7 +6,7 @@ from pathlib import Path
 import uvicorn
 
 from guard.access import AccessPolicy, check_token_setting
-from guard.listen import bind
+from guard.listen import bind, listening_url
 from recording.replay.player import Player
 from recording.replay.timeline import Timeline
 from server.replay.app import create_replay_app
@@ -25,10 +25,9 @@ def serve_replay(path: Path, host: str, port: int, play: bool, speed: float) -> 
     player = Player(timeline.start_ns, timeline.end_ns)
     player.set(playing=play, speed=speed)
     sock = bind(host, port)
-    bound_host, bound_port = sock.getsockname()[0:2]
+    bound_port = sock.getsockname()[1]
     print(
-        f"ptwl replay-serve: {path.name} ({timeline.duration_s:.1f} s) as a robot on "
-        f"http://{bound_host}:{bound_port}",
+        f"ptwl replay-serve: {path.name} ({timeline.duration_s:.1f} s) as a robot on {listening_url(sock)}",
         flush=True,
     )
     app = create_replay_app(timeline, player, AccessPolicy(host, bound_port))
