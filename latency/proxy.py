@@ -42,11 +42,10 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 from yarl import URL
 
 from guard.access import AccessPolicy
-from guard.asgi import AccessGuard
-from guard.body_limit import BODY_LIMIT_BYTES, BodyLimitMiddleware
 from guard.disconnect import client_gone
-from guard.json_body import JsonBodyError, StrictJsonBody, parse_json
+from guard.json_body import JsonBodyError, parse_json
 from guard.outbox import Close, Outbox
+from guard.stack import install_guards
 from latency.clock import RealTimeDriver
 from latency.delay_line import Dropped
 from latency.link import Link
@@ -147,10 +146,7 @@ class LinkProxy:
             await (relay if scope["type"] == "websocket" else forward)(scope, receive, send)
 
         app.router.default = unmatched
-        # Outermost first: who may ask (Host, Origin, token), how much (64 KiB), then strict JSON.
-        app.add_middleware(StrictJsonBody)
-        app.add_middleware(BodyLimitMiddleware, limit=BODY_LIMIT_BYTES)
-        app.add_middleware(AccessGuard, policy=self.access)
+        install_guards(app, self.access)
         return app
 
     def _upstream_target(self, scope: Scope, query: str, scheme: str | None = None) -> URL | None:

@@ -6,13 +6,11 @@ from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
 
-from guard.asgi import AccessGuard
-from guard.body_limit import BodyLimitMiddleware
-from guard.json_body import StrictJsonBody
+from guard.stack import install_guards
 from robot_sim.command_book import CommandRecord
 from robot_sim.limits import COMMAND_HISTORY_MAX, COMMAND_QUEUE_MAX
 from server.commands import CommandBook, CommandIds
-from server.config import BODY_LIMIT_BYTES, ServerConfig
+from server.config import ServerConfig
 from server.errors import install_error_handlers
 from server.models import COMMON_RESPONSES
 from server.recording import RecordingThread, session_metadata
@@ -82,10 +80,7 @@ def create_app(config: ServerConfig) -> FastAPI:
     )
     app.state.config = config
     install_error_handlers(app)
-    # Outermost first: who may ask (Host, Origin, token), how much (64 KiB), then strict JSON.
-    app.add_middleware(StrictJsonBody)
-    app.add_middleware(BodyLimitMiddleware, limit=BODY_LIMIT_BYTES)
-    app.add_middleware(AccessGuard, policy=config.access())
+    install_guards(app, config.access())
     for module in (commands, frames, robot, scenes, telemetry):
         app.include_router(module.router)
     if config.fault_injection:

@@ -16,9 +16,7 @@ from fastapi import APIRouter, FastAPI, HTTPException, Query, WebSocket, WebSock
 from pydantic import BaseModel, ConfigDict, Field
 
 from guard.access import AccessPolicy
-from guard.asgi import AccessGuard
-from guard.body_limit import BODY_LIMIT_BYTES, BodyLimitMiddleware
-from guard.json_body import StrictJsonBody
+from guard.stack import install_guards
 from recording.replay.player import MAX_SPEED, SPEEDS, Player
 from recording.replay.timeline import Timeline
 from server.errors import install_error_handlers
@@ -59,9 +57,7 @@ class ReplayStatus(BaseModel):
 def create_replay_app(timeline: Timeline, player: Player, policy: AccessPolicy) -> FastAPI:
     app = FastAPI(title="ptwl replay", version="0.1.0", description=f"A replay of {timeline.path}")
     install_error_handlers(app)
-    app.add_middleware(StrictJsonBody)
-    app.add_middleware(BodyLimitMiddleware, limit=BODY_LIMIT_BYTES)
-    app.add_middleware(AccessGuard, policy=policy)
+    install_guards(app, policy)
     api = APIRouter(prefix="/api")
     refused = f"this is a replay of {timeline.path.name}: nothing can be sent to a recording"
 
