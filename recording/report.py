@@ -16,7 +16,8 @@ from typing import Any
 
 from recording import topics
 from recording.reader import Recorded, Recording, RecordingError, Scan
-from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
+from robot_sim.behaviors import BehaviorReport
+from robot_sim.finite import report_from_json
 from robot_sim.policies.run import paper_rows, report_metrics
 
 REPORTED = (topics.GEOMETRY.name, topics.STEPS.name, topics.TASK.name)  # all a report decodes
@@ -155,19 +156,4 @@ def _named(path: Path, make: Callable[[], list[RecordedTrial]]) -> list[Recorded
 
 def _report(step: dict[str, Any]) -> BehaviorReport:
     """A recorded step (StepRecord.as_dict()) as the report it was made from."""
-    port = step.get("final_port") or {"position": [0.0] * 3, "quaternion": [1.0, 0.0, 0.0, 0.0]}
-    return BehaviorReport(
-        behavior=step["behavior"],
-        exit=ExitCondition(step["exit"]),
-        started_at=step["started_at"],
-        ended_at=step["ended_at"],
-        peak_force=_number(step.get("peak_force")),
-        peak_torque=_number(step.get("peak_torque")),
-        final_wrench=tuple(step.get("final_wrench") or [0.0] * 6),
-        final_port=Pose(tuple(port["position"]), tuple(port["quaternion"])),
-        detail=step.get("detail", ""),
-    )
-
-
-def _number(value: float | None) -> float:
-    return float("nan") if value is None else float(value)
+    return report_from_json(step, step["started_at"], step["ended_at"])

@@ -7,6 +7,8 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
+from robot_sim.behaviors.base import BehaviorReport, ExitCondition, Pose
+
 
 def finite_or_none(value: float) -> float | None:
     return value if math.isfinite(value) else None
@@ -27,3 +29,27 @@ def finite_json(value: Any) -> Any:
             return finite_vector_or_none(value)
         return [finite_json(v) for v in value]
     return value
+
+
+def number_or_nan(value: float | None) -> float:
+    """A published number read back: null (a non-finite one, by the rule above) is NaN, never a
+    measured 0."""
+    return math.nan if value is None else float(value)
+
+
+def report_from_json(fields: dict[str, Any], started_at_s: float, ended_at_s: float) -> BehaviorReport:
+    """A BehaviorReport from the JSON it was published as (an API record or event, a recorded
+    step), with the rule above undone: what was null reads back as NaN."""
+    port = fields.get("final_port") or {"position": [math.nan] * 3, "quaternion": [math.nan] * 4}
+    wrench = fields.get("final_wrench") or [math.nan] * 6
+    return BehaviorReport(
+        behavior=fields.get("behavior") or fields["type"],
+        exit=ExitCondition(fields["exit"]),
+        started_at=started_at_s,
+        ended_at=ended_at_s,
+        peak_force=number_or_nan(fields.get("peak_force")),
+        peak_torque=number_or_nan(fields.get("peak_torque")),
+        final_wrench=tuple(float(v) for v in wrench),
+        final_port=Pose(tuple(port["position"]), tuple(port["quaternion"])),
+        detail=fields.get("detail") or "",
+    )

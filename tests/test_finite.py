@@ -52,3 +52,26 @@ def test_a_recorded_fault_reads_back_as_strict_json_with_nulls(tmp_path: Path) -
     assert len(texts) == 1
     decoded = json.loads(texts[0], parse_constant=lambda name: (_ for _ in ()).throw(ValueError(name)))
     assert decoded["peak_force"] is None and decoded["final_wrench"] is None and decoded["command"] == 7
+
+
+def test_a_published_report_reads_back_with_null_as_nan_never_as_a_measured_zero() -> None:
+    """The sweep's real-time operator read a null peak as 0.0 N, the recording's report as NaN;
+    one rule now (robot_sim/finite.py: report_from_json)."""
+    from robot_sim.finite import report_from_json
+
+    published = finite_json(
+        {
+            "type": "ptwl",
+            "exit": "fault",
+            "peak_force": NAN,
+            "peak_torque": 0.25,
+            "final_wrench": [1.0, NAN, 0.0, 0.0, 0.0, 0.0],
+            "final_port": {"position": [0.1, 0.2, 0.3], "quaternion": [1.0, 0.0, 0.0, 0.0]},
+            "detail": "unstable",
+        }
+    )
+    back = report_from_json(published, 2.0, 3.5)
+    assert back.behavior == "ptwl" and back.exit.value == "fault" and back.detail == "unstable"
+    assert math.isnan(back.peak_force) and back.peak_torque == 0.25
+    assert len(back.final_wrench) == 6 and all(math.isnan(v) for v in back.final_wrench)
+    assert back.final_port.position == (0.1, 0.2, 0.3) and back.duration == 1.5

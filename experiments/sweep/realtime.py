@@ -21,7 +21,8 @@ from experiments.sweep.operators import Operator, operator_for
 from experiments.sweep.robot import Accepted, Done, Post, Request, Status
 from experiments.sweep.spec import SweepSettings, TrialSpec
 from experiments.sweep.trial import MAX_TRIAL_S, run_trial
-from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
+from robot_sim.behaviors import BehaviorReport, Pose
+from robot_sim.finite import number_or_nan, report_from_json
 from server.client import RobotClient, RobotError
 
 AGREEMENT = 0.05  # the real mean task time within 5 % of the virtual one
@@ -29,18 +30,7 @@ AGREEMENT = 0.05  # the real mean task time within 5 % of the virtual one
 
 def report_of(event: dict[str, Any]) -> BehaviorReport:
     """A BehaviorReport from a command's status or event (the fields a policy reads)."""
-    port = event["final_port"]
-    return BehaviorReport(
-        behavior=event.get("behavior") or event["type"],
-        exit=ExitCondition(event["exit"]),
-        started_at=0.0,
-        ended_at=float(event["duration"] or 0.0),
-        peak_force=float(event["peak_force"] or 0.0),
-        peak_torque=float(event["peak_torque"] or 0.0),
-        final_wrench=tuple(event["final_wrench"] or (0.0,) * 6),
-        final_port=Pose(tuple(port["position"]), tuple(port["quaternion"])),
-        detail=event.get("detail", ""),
-    )
+    return report_from_json(event, 0.0, number_or_nan(event["duration"]))
 
 
 class LinkedOperator:
