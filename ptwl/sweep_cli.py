@@ -67,6 +67,7 @@ def settings_from(args: argparse.Namespace, argv: list[str]) -> SweepSettings:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     # Imported here: matplotlib and the sweep machinery would add ~0.8 s to every `ptwl` start.
+    from experiments.sweep.backends import BackendMissing
     from experiments.sweep.plots import findings
     from experiments.sweep.sweep import run_sweep
 
@@ -75,6 +76,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         return realtime(settings)
     try:
         rows = run_sweep(settings)
+    except BackendMissing as err:
+        print(f"ptwl sweep: {err}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print(
             f"\nptwl sweep: interrupted; finished trials are in {args.out}/trials.csv; "

@@ -14,6 +14,7 @@ from typing import Any
 import pytest
 
 from experiments.sweep import sweep as sweep_module
+from experiments.sweep.backends import BackendMissing
 from experiments.sweep.spec import SweepSettings
 from experiments.sweep.summary import Fit, break_even_s, fits
 from experiments.sweep.sweep import OutDirectoryError, run_sweep
@@ -217,9 +218,15 @@ def test_ray_missing_is_refused_before_anything_is_written(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setattr(sweep_module.backends.importlib.util, "find_spec", lambda name: None)
-    with pytest.raises(SystemExit, match=r'pip install -e "\.\[ray\]"'):
+    with pytest.raises(BackendMissing, match=r'pip install -e "\.\[ray\]"'):
         run_sweep(small(tmp_path / "out", backend="ray"))
     assert not (tmp_path / "out").exists()
+    out = tmp_path / "cli"
+    assert (
+        main(["sweep", "--task", "lid", "--rtt", "0", "--trials", "1", "--backend", "ray", "--out", str(out)])
+        == 2
+    )
+    assert not out.exists()
 
 
 def test_bad_arguments_name_the_argument_and_the_range(capsys: pytest.CaptureFixture[str]) -> None:

@@ -107,10 +107,14 @@ def run_ray(
             ray.shutdown()
 
 
+class BackendMissing(RuntimeError):
+    """A sweep backend whose library is not installed; the message says how to install it."""
+
+
 def available(backend: str) -> None:
     """Refuse, before anything is written, a backend whose library is not installed."""
     if backend == "ray" and importlib.util.find_spec("ray") is None:
-        raise SystemExit('the ray backend needs Ray: pip install -e ".[ray]"')
+        raise BackendMissing('the ray backend needs Ray: pip install -e ".[ray]"')
 
 
 def run(
