@@ -41,3 +41,18 @@ def test_a_command_is_checked_and_queued_on_the_simulation_thread(
         assert refused.status_code == 422 and "nowhere" in refused.text
         assert seen == ["frames on ptwl-sim", "warnings on ptwl-sim", "frames on ptwl-sim"]
         assert app.state.book.queued_count() <= 1  # the refused one was never queued
+
+
+def test_the_server_in_process_leaves_no_thread_behind(tmp_path: Path) -> None:
+    """Its simulation thread (and the recording's, when recording) stop and join with the app."""
+    before = {thread.ident for thread in threading.enumerate()}
+    record = tmp_path / "session.mcap"
+    app = create_app(
+        ServerConfig(scene="surface", data_dir=tmp_path, allow_hosts=("testserver",), record=record)
+    )
+    with TestClient(app) as client:
+        assert client.post("/api/commands", json={"type": "rwe", "duration": 0.1}).status_code == 202
+        names = {thread.name for thread in threading.enumerate()}
+        assert {"ptwl-sim", "ptwl-record"} <= names
+    left = [t.name for t in threading.enumerate() if t.ident not in before and t.is_alive()]
+    assert left == []
