@@ -225,8 +225,13 @@ class SimRunner:
 
 
 def command_event(record: CommandRecord) -> str:
+    """The command event's text (command_message, as JSON)."""
+    return json.dumps(command_message(record))
+
+
+def command_message(record: CommandRecord) -> dict[str, Any]:
     """`{"type": "command", ...command}`; the command's own `type` (ptwl, rwe, dither) would
     collide with the message type, so it travels as `behavior`."""
     command = status_model(record).model_dump()
     command["behavior"] = command.pop("type")
-    return json.dumps({"type": "command", **command})
+    return {"type": "command", **command}

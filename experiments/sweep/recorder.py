@@ -53,8 +53,8 @@ class TrialRecorder:
         """After the robot's tick: record what changed (cheap when nothing did)."""
         robot, now = self._robot, self._robot.sim.time
         ns = _ns(now)
-        if len(robot.reports) != len(self._ids):
-            for tag in robot.reports:
+        if len(robot.submitted) != len(self._ids):
+            for tag in robot.submitted:
                 if tag not in self._ids:
                     self._ids[tag] = len(self._ids) + 1
                     self._params[tag] = robot.submitted[tag].params

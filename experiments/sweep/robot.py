@@ -86,29 +86,19 @@ class Figures:
 class VirtualRobot:
     def __init__(self, task: str, seed: int) -> None:
         self.sim = Simulation(task, seed)
-        self.book = CommandBook(
-            COMMAND_QUEUE_MAX, COMMAND_HISTORY_MAX, self.unix_time_s, self._changed, instance="virtual"
-        )
+        self.book = CommandBook(COMMAND_QUEUE_MAX, COMMAND_HISTORY_MAX, self.unix_time_s, instance="virtual")
         self.commands = CommandRunner(self.sim, self.book)
-        self.reports: dict[str, BehaviorReport | None] = {}  # by tag: None while queued or running
-        self.records: list[CommandRecord] = []  # every command's record, in the order they ended
         self.figures = Figures()
-        self._tags: dict[int, str] = {}  # command id -> the sender's tag
-        self.submitted: dict[str, CommandRecord] = {}  # by tag, in the order they arrived
+        # Every command's record by its tag, in the order they arrived (the tag is its sender).
+        self.submitted: dict[str, CommandRecord] = {}
 
     @property
     def running_tag(self) -> str | None:
         running = self.book.running
-        return self._tags[running.id] if running is not None else None
+        return running.sender if running is not None else None
 
     def unix_time_s(self) -> float:
         return VIRTUAL_EPOCH_S + self.sim.time
-
-    def _changed(self, record: CommandRecord) -> None:
-        if record.status == "done":
-            self.records.append(record)
-            if record.report is not None:
-                self.reports[self._tags[record.id]] = record.report
 
     def stop(self) -> Stopped:
         """POST /api/stop (the sweeps' operators never send it; scripts and tests do)."""
@@ -117,13 +107,11 @@ class VirtualRobot:
     def handle(self, request: Request) -> Reply:
         """A request that arrived; its answer (the server answers between 2 ms batches)."""
         if isinstance(request, Post):
-            if request.tag not in self.reports:  # a resent POST that did arrive is not run twice
-                record = self.book.submit(request.params, sender=request.tag)
-                self._tags[record.id] = request.tag
-                self.submitted[request.tag] = record
-                self.reports[request.tag] = None
+            if request.tag not in self.submitted:  # a resent POST that did arrive is not run twice
+                self.submitted[request.tag] = self.book.submit(request.params, sender=request.tag)
             return Accepted(request.tag)
-        return Status(request.tag, request.tag in self.reports, self.reports.get(request.tag))
+        record = self.submitted.get(request.tag)  # its report is set as it ends
+        return Status(request.tag, record is not None, record.report if record is not None else None)
 
     def tick(self) -> Done | None:
         """One control period: start the next queued command if idle, step; an ended command."""
@@ -142,8 +130,8 @@ class VirtualRobot:
         figures.steps.append(ended.step)
         if ended.command is None:
             return None
-        assert running is not None
-        return Done(self._tags[running.id], ended.command)
+        assert running is not None and running.sender is not None
+        return Done(running.sender, ended.command)
 
     def tick_until(self, until_s: float) -> Done | None:
         """One tick, then more while nothing else can happen before `until_s` (the next instant

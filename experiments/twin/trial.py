@@ -5,7 +5,6 @@ than real time; the tests and bench.twin use it to measure the prediction error 
 readout shows."""
 
 import bisect
-import json
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -21,7 +20,7 @@ from robot_sim.params import PtwlParams
 from robot_sim.sim import Simulation
 from robot_sim.task_frames import TaskFrames
 from robot_sim.telemetry import state_fields
-from server.runner import command_event
+from server.runner import command_message
 from web.twin import GroundTwin, Sent
 
 STATE_S = 0.02  # telemetry at 50 Hz
@@ -151,7 +150,7 @@ class TwinTrial:
     def _changed(self, record: CommandRecord) -> None:
         """The robot's command event (running, done) goes down the link."""
         if record.status in ("running", "done"):
-            event = json.loads(command_event(record))
+            event = command_message(record)
             self.to_console.append((self._wall() + self.down_s, "command", event))
 
     def _robot_publishes_state(self, wall: float) -> None:
