@@ -25,10 +25,14 @@ def bind(host: str, port: int) -> socket.socket:
     return sock
 
 
+def host_port(host: str, port: int) -> str:
+    """host:port as a URL writes it, an IPv6 address in brackets."""
+    return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
+
+
 def http_url(host: str, port: int) -> str:
-    """The URL of a server listening on (host, port), an IPv6 address in brackets."""
-    shown = f"[{host}]" if ":" in host else host
-    return f"http://{shown}:{port}"
+    """The URL of a server listening on (host, port)."""
+    return f"http://{host_port(host, port)}"
 
 
 def listening_url(sock: socket.socket) -> str:

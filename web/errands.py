@@ -26,10 +26,6 @@ class Errands:
             thread.start()
             return True
 
-    def running(self) -> list[str]:
-        with self._lock:
-            return [t.name for t in self._threads if t.is_alive()]
-
     def close(self, timeout_s: float = JOIN_TIMEOUT_S) -> None:
         with self._lock:
             self._closed = True

@@ -23,7 +23,7 @@ from urllib.parse import urlsplit
 
 from guard.access import AccessPolicy
 from guard.asgi import denial
-from guard.listen import http_url
+from guard.listen import host_port
 from guard.page_headers import CONSOLE_CSP, page_headers
 
 MAX_HEAD_BYTES = 64 * 1024
@@ -131,7 +131,7 @@ class FrontDoor:
     @property
     def address(self) -> str:
         """host:port as a URL writes it (an IPv6 host in brackets); after start()."""
-        return http_url(self._host, self.port_bound or 0).removeprefix("http://")
+        return host_port(self._host, self.port_bound or 0)
 
     async def _bind(self) -> asyncio.Server:
         return await asyncio.start_server(self._handle, self._host, self._port, reuse_address=True)
