@@ -97,9 +97,9 @@ class TwinTrial:
         self.twin.frames = TaskFrames(robot.frames.all())  # as the console heard them (GET /api/frames)
         self.book = CommandBook(COMMAND_QUEUE_MAX, COMMAND_HISTORY_MAX, self._wall, self._changed)
         self.commands = CommandRunner(robot, self.book)
-        self.to_robot: deque[tuple[float, BehaviorParams, list[int]]] = deque()  # (arrival, params, id)
+        self.to_robot: deque[tuple[float, BehaviorParams]] = deque()  # (arrival, params)
         self.to_console: deque[tuple[float, str, dict[str, Any]]] = deque()  # (arrival, kind, message)
-        self.started: set[int] = set()  # ids whose `running` event reached the console
+        self.started: set[float] = set()  # sent_at stamps of commands whose `running` event came
         self.pending_sends = sorted(sends, key=lambda s: s[0])
         # Held up until just after the send: the thread wakes to a send it has not run to yet.
         self.stalls = [(at - stall_s, at + 0.005) for at, _ in self.pending_sends if stall_s > 0.0]
@@ -108,7 +108,6 @@ class TwinTrial:
         self.moved_after: list[tuple[float, np.ndarray]] = []  # (send wall, twin port then)
         self.history: list[tuple[float, np.ndarray]] = []  # the robot's (sim time, port) as sent
         self.t0 = robot.time
-        self.clock = [self._wall()]  # the virtual wall clock, as `pending` views read it
 
     @property
     def elapsed_s(self) -> float:
@@ -118,7 +117,7 @@ class TwinTrial:
         return WALL0 + self.robot.time
 
     def tick(self) -> None:
-        wall = self.clock[0] = self._wall()
+        wall = self._wall()
         self._console_sends(wall)
         self._robot_receives(wall)
         self.commands.start_next()
@@ -133,19 +132,21 @@ class TwinTrial:
         while self.pending_sends and self.pending_sends[0][0] <= self.elapsed_s:
             _, unstamped = self.pending_sends.pop(0)
             params = unstamped.model_copy(update={"sent_at": wall})  # as the console stamps it
-            cid: list[int] = []  # the robot's id for it, known once it arrives
-            self.to_robot.append((wall + self.up_s, params, cid))
+            self.to_robot.append((wall + self.up_s, params))
             # The console's history calls a command pending until it has both the robot's 202
             # and its `running` event; across the link the event usually comes first.
             acked_wall = wall + self.rtt_s + self.ack_lag_s
-            self.twin.on_sent(Sent(params, wall, _pending(self.clock, self.started, cid, acked_wall)))
+            self.twin.on_sent(Sent(params, wall, self._pending(wall, acked_wall)))
             if self.twin.latest is not None:
                 self.moved_after.append((wall, self.twin.latest.port[0].copy()))
 
+    def _pending(self, sent_wall: float, acked_wall: float) -> Callable[[], bool]:
+        """The console's view: pending until its `running` event came and its 202 did."""
+        return lambda: sent_wall not in self.started or self._wall() < acked_wall
+
     def _robot_receives(self, wall: float) -> None:
         while self.to_robot and self.to_robot[0][0] <= wall:
-            _, params, cid = self.to_robot.popleft()
-            cid.append(self.book.submit(params).id)
+            self.book.submit(self.to_robot.popleft()[1])
 
     def _changed(self, record: CommandRecord) -> None:
         """The robot's command event (running, done) goes down the link."""
@@ -171,7 +172,7 @@ class TwinTrial:
             arrival, kind, message = self.to_console.popleft()
             if kind == "command":
                 if message.get("status") == "running":
-                    self.started.add(int(message["id"]))
+                    self.started.add(float(message["params"]["sent_at"]))
                 self.twin.on_command(message)
                 continue
             error = self.twin.on_state(message, arrival)
@@ -194,11 +195,6 @@ class TwinTrial:
             if float(np.linalg.norm(prediction.port[0] - before)) > 1e-4:
                 self.result.send_to_move_s.append(wall - sent_wall)
                 self.moved_after.remove((sent_wall, before))
-
-
-def _pending(clock: list[float], started: set[int], cid: list[int], acked_wall: float) -> Callable[[], bool]:
-    """Pending until the robot's `running` event for it reached the console and its 202 did."""
-    return lambda: not cid or cid[0] not in started or clock[0] < acked_wall
 
 
 def _port_at(history: list[tuple[float, np.ndarray]], sim_time: float) -> np.ndarray:
