@@ -28,11 +28,12 @@ from robot_sim.task_frames import TaskFrame, TaskFrames, unit_quaternion
 from server.client import RobotClient
 from server.models import GeometryModel
 from web.app import ConsoleApp
+from web.arm_bodies import FIXTURE_OPACITY
+from web.defaults import load_defaults
 from web.desk import Desk
 from web.handshake import Catalog
 from web.history import CommandHistory
 from web.preview_marks import MAX_SEGMENTS
-from web.robot_view import FIXTURE_OPACITY
 from web.status_bar import _task_html, staleness
 from web.targets import displacement_to, ptwl_target
 
@@ -402,7 +403,7 @@ def test_fixtures_are_see_through_and_the_markers_opaque(console: ConsoleApp) ->
     console.view.load(geometry)
     try:
         drawn = {
-            name: [handle.opacity for handle, _ in console.view._meshes if handle.name.startswith(node)]
+            name: console.view.arm.opacities(node)
             for name in geometry.bodies
             for node in ["/robot/" + name.replace("/", "_") + "/"]
         }
@@ -410,7 +411,7 @@ def test_fixtures_are_see_through_and_the_markers_opaque(console: ConsoleApp) ->
         assert drawn["arm/link2"] and all(o is None for o in drawn["arm/link2"])  # opaque
         with viser_client(console) as desk:
             assert desk.contemplated.tool.opacity is None
-        assert console.view.commanded.tool.opacity is None
+        assert console.view.commanded.solid.tool.opacity is None
     finally:
         console.scene.draw()
 
@@ -506,7 +507,7 @@ def test_commands_carry_max_age_round_trip_plus_margin_and_an_expiry_is_said(
     wait_for_state(console)
     said: list[tuple[str, str, str]] = []
     monkeypatch.setattr(
-        console.notifier, "notify", lambda title, body, color: said.append((title, body, color))
+        console.site.notifier, "notify", lambda title, body, color: said.append((title, body, color))
     )
     link_profile = console.link.client.base_url + "/_link/profile"
     assert console.link.poller is not None
@@ -518,7 +519,7 @@ def test_commands_carry_max_age_round_trip_plus_margin_and_an_expiry_is_said(
             before = time.time()
             console.commanding.send(desk, "rwe", desk.panel.rwe.params())
             sent = robot.commands(limit=1)[-1]
-            assert sent.params["max_age"] == pytest.approx(0.15 + console.defaults.max_age_over_rtt_s)
+            assert sent.params["max_age"] == pytest.approx(0.15 + load_defaults().max_age_over_rtt_s)
             assert before <= sent.params["sent_at"] <= time.time()
             # One that is too old when its turn comes (here: any age over 1 us).
             console.commanding.send(desk, "rwe", {**desk.panel.rwe.params(), "max_age": 1e-6})

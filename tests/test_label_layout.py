@@ -94,8 +94,8 @@ def test_the_views_place_their_labels_as_the_table_says() -> None:
         view, ghost = RobotView(server, 0.001), GhostView(server)
         drawn = {
             "ghost": ghost.label,
-            "commanded": view.commanded.label,
-            "predicted": view.predicted.label,
+            "commanded": view.commanded.solid.label,
+            "predicted": view.commanded.outline.label,
         }
         places = {
             "ghost": GHOST,

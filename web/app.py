@@ -25,15 +25,15 @@ from web.command_log import CommandLog
 from web.commanding import Commanding
 from web.defaults import load_defaults
 from web.desks import Desks
-from web.front_door import FrontDoor, admit_only_through
 from web.handshake import Catalog
 from web.known_frames import KnownFrames
-from web.notifier import Notifier
-from web.playback import Playback, replay_status
+from web.playback import Playback
+from web.replay_api import ReplayApi, replay_status
 from web.robot_link import RobotLink
-from web.robot_view import INITIAL_CAMERA, RobotView
+from web.robot_view import RobotView
 from web.scene_keeper import SceneKeeper
 from web.seat import ControlSeat
+from web.site import ConsoleSite
 from web.status_room import StatusRoom
 from web.twin_room import TwinRoom
 
@@ -49,50 +49,52 @@ class ConsoleApp:
         replay: bool = False,
     ):
         self.replay = replay  # the robot is `ptwl replay`'s stand-in for a recording
-        self.link = RobotLink(robot_url.rstrip("/"), token)
-        self.defaults = load_defaults()
-        # viser checks no Origin: it listens on an ephemeral loopback port behind the front door.
-        self.server = viser.ViserServer(host="127.0.0.1", port=0, label="ptwl console", verbose=False)
-        self.front_door = FrontDoor(host, port, self.server.get_port(), allow_origins)
-        admit_only_through(self.front_door, self.server)
-        self.front_door.start()
-        self.server.initial_camera.position, self.server.initial_camera.look_at = INITIAL_CAMERA
-        self.server.gui.configure_theme(control_width="large", dark_mode=False)
-        self.seat = ControlSeat()
-        self.notifier = Notifier(self.server)
-        self._closed = False
+        catalog = Catalog.local()  # the console's own copy: Send shows without a round trip
+        self.link = RobotLink(robot_url.rstrip("/"), token, catalog)
+        defaults = load_defaults()
+        self.site = ConsoleSite(host, port, allow_origins)
+        server, notifier = self.site.viser, self.site.notifier
+        seat = ControlSeat()
         self.playback: Playback | None = None  # when the robot is a recording
-        self.catalog = Catalog.local()  # the console's own copy: Send shows without a round trip
-        self.view = RobotView(self.server, self.defaults.wrench_arrow_m_per_n)
-        scene_names = [s.name for s in self.catalog.scenes]
-        self.board = Board(self.server.gui, scene_names, scene_names[0], self.defaults.plot_s)
-        self.log = CommandLog(self.link.client, self.board, self.view, self.notifier)
+        view = RobotView(server, defaults.wrench_arrow_m_per_n)
+        scene_names = [s.name for s in catalog.scenes]
+        self.board = Board(server.gui, scene_names, scene_names[0], defaults.plot_s)
+        self.log = CommandLog(self.link.client, self.board, view, notifier)
         self.frames = KnownFrames(self._frames_changed)
         self.commanding = Commanding(
-            self.link, self.frames, self.log, self.seat, self.defaults, self.notifier, self.front_door.address
+            self.link, self.frames, self.log, seat, defaults, notifier, self.site.front_door.address
         )
-        self.desks = Desks(self.catalog, self.defaults, self.seat, self.commanding, self.frames)
+        self.desks = Desks(catalog, defaults, seat, self.commanding, self.frames)
         self.scene = SceneKeeper(
-            self.server,
-            self.link,
-            self.frames,
-            self.view,
-            self.board,
-            self.log,
-            self.notifier,
-            self.desks.scene_drawn,
+            server, self.link, self.frames, view, self.board, self.log, notifier, self.desks.scene_drawn
         )
         self.twin_room: TwinRoom | None = None  # the predictive display (not for a recording)
-        if self.defaults.twin and not replay:
-            self.twin_room = TwinRoom(self.server, self.link, self.defaults.twin_min_rtt_s)
+        if defaults.twin and not replay:
+            self.twin_room = TwinRoom(server, self.link, defaults.twin_min_rtt_s)
             self.commanding.twin = self.twin_room.twin
             self.scene.ghost = self.twin_room.ghost
-        rooms = (self.link, self.log, self.commanding, self.seat, self.scene, self.twin_room, self.view)
-        self.status = StatusRoom(self.server.gui, *rooms)
+        rooms = (self.link, self.log, self.commanding, seat, self.scene, self.twin_room, view)
+        self.status = StatusRoom(server.gui, *rooms)
 
     @property
     def url(self) -> str:
-        return f"http://{self.front_door.address}"
+        return self.site.url
+
+    @property
+    def server(self) -> viser.ViserServer:
+        return self.site.viser
+
+    @property
+    def view(self) -> RobotView:
+        return self.scene.view
+
+    @property
+    def seat(self) -> ControlSeat:
+        return self.desks.seat
+
+    @property
+    def closed(self) -> bool:
+        return self.log.closed
 
     # ---------------------------------------------------------------- start
     def connect(self, timeout: float | None = None) -> None:
@@ -104,8 +106,7 @@ class ConsoleApp:
                 raise RuntimeError(f"{self.link.robot_url} is not a replay (GET /_replay did not answer)")
             self.playback = Playback(
                 self.server.gui,
-                self.link.robot_url,
-                self.link.token,
+                ReplayApi(self.link.robot_url, self.link.token),
                 replay,
                 self.log.replay_jumped,
                 self.board.plots,
@@ -119,7 +120,6 @@ class ConsoleApp:
             self.server.on_client_disconnect(self.desks.disconnected)
         # The meshes go out after the panels, when the robot has answered.
         self.link.start(
-            self.catalog,
             self.scene.met_robot,
             self._on_state,
             self._on_command,
@@ -145,7 +145,7 @@ class ConsoleApp:
     # ------------------------------------------------------------ telemetry
     def _on_state(self, state: dict[str, Any], arrived: float, previous: dict[str, Any] | None) -> None:
         """(the feed's thread) A state: every view of the robot moves to it."""
-        if self._closed:
+        if self.closed:
             return
         if self.twin_room is not None:
             self.twin_room.twin.on_state(state, arrived)
@@ -162,7 +162,7 @@ class ConsoleApp:
         self.board.plot_state(state["sim_time"], state["wrench"])
 
     def _on_command(self, message: dict[str, Any]) -> None:
-        if self._closed:
+        if self.closed:
             return
         if self.twin_room is not None:
             self.twin_room.twin.on_command(message)
@@ -177,7 +177,7 @@ class ConsoleApp:
         return [name for name, part in parts if part is not None and part.running]
 
     def close(self) -> None:
-        self._closed = self.log.closed = self.scene.closed = True
+        self.log.closed = self.scene.closed = True
         self.desks.close()
         self.link.close()
         for part in (
@@ -190,9 +190,5 @@ class ConsoleApp:
                 part.close()
         for errands in (self.log.errands, self.scene.errands):
             errands.close()
-        # viser first, while the front door still carries its close handshake to the browsers:
-        # closed the other way round, viser waited out its close timeout (6 s) on pipes nobody
-        # read any more.
-        self.server.stop()
-        self.front_door.close()
+        self.site.close()
         self.link.close_client()

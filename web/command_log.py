@@ -77,7 +77,7 @@ class CommandLog:
         if view is self.commanded:
             live = view.phase != "done" and view.target is not None
             self._view.show_commanded(view.target if live else None, view.resolved)
-            marker = self._view.commanded if view.resolved else self._view.predicted
+            marker = self._view.commanded.marker(view.resolved)
             self._board.show_commanded(view, marker.distance_mm)
         self.show(view)
 

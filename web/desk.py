@@ -95,7 +95,7 @@ class Desk:
         panel.frames.show_frames.on_update(
             lambda _: self.frames_view.set_visible(bool(panel.frames.show_frames.value))
         )
-        panel.take_control.on_click(lambda _: self._take_control())
+        panel.control.take_control.on_click(lambda _: self._take_control())
         for behavior, button in panel.sends.items():
             button.on_click(self._sender(behavior))
         panel.ptwl.step.send_step.on_click(lambda _: self._send_typed("ptwl", panel.ptwl.step_params))

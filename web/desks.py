@@ -30,7 +30,7 @@ class Desks:
         dither = presets.pop("dither")
         tasks = {t.name: t.summary for t in catalog.tasks}
         self._catalog = DeskCatalog(defaults, presets, dither, tasks)
-        self._seat, self._commanding, self._frames = seat, commanding, frames
+        self.seat, self._commanding, self._frames = seat, commanding, frames
         self._lock = threading.Lock()
         self._desks: dict[int, Desk] = {}
         self.scene = ""  # the scene drawn: each new desk picks its task
@@ -40,7 +40,7 @@ class Desks:
     def connected(self, client: viser.ClientHandle) -> None:
         if self.closed:
             return
-        desk = Desk(client, self._catalog, self._seat, self._commanding)
+        desk = Desk(client, self._catalog, self.seat, self._commanding)
         desk.panel.show_scene_task(self.scene)
         desk.show_frames(self._frames.heard())
         with self._lock:
@@ -49,7 +49,7 @@ class Desks:
     def disconnected(self, client: viser.ClientHandle) -> None:
         with self._lock:
             self._desks.pop(client.client_id, None)
-        self._seat.release(client.client_id)
+        self.seat.release(client.client_id)
 
     def all(self) -> list[Desk]:
         with self._lock:

@@ -14,15 +14,17 @@ from typing import Any
 import viser
 
 from web.checks import Check
+from web.control_line import ControlLine
 from web.defaults import ConsoleDefaults
 from web.dither_tab import DitherTab
 from web.frames_tab import FramesTab
-from web.markup import Markup, add_html, show
-from web.panel_html import check_html, control_html, field_named, gains_html
+from web.markup import show
+from web.panel_html import check_html, field_named
 from web.ptwl_settings import BUILT_IN_FRAMES, PRESET_FRAME
 from web.ptwl_tab import PtwlTab
 from web.request_tab import RequestTab, Typed
 from web.small_tabs import GripperTab, RweTab, TaskTab
+from web.stiffness_picker import StiffnessPicker
 
 FORM_ORDER = 10.0  # each browser's own form sits above the shared board (order 100+)
 
@@ -38,18 +40,13 @@ class Panel:
         dither_presets: dict[str, dict[str, Any]],
         tasks: dict[str, str],
     ) -> None:
-        self.stiffness_presets = stiffness_presets
-        self._mine = False
-        self.control = add_html(gui, control_html(False, None), order=FORM_ORDER)
-        self.take_control = gui.add_button(
-            "Take control", color="teal", hint="become the one operator who can send", order=FORM_ORDER + 0.1
-        )
+        self.control = ControlLine(gui, order=FORM_ORDER)
         tabs = gui.add_tab_group(order=FORM_ORDER + 0.2)
         # Each request's tab sits in a form so Enter in any of its fields submits it: the desk
         # sends it as its Send button would (viser's page hotkeys are ignored inside text fields).
         self.forms: dict[str, viser.GuiFormHandle] = {}
         with tabs.add_tab("PTWL"), gui.add_form(None) as self.forms["ptwl"]:
-            self.ptwl = PtwlTab(gui, defaults.ptwl, lambda: str(self.stiffness.value))
+            self.ptwl = PtwlTab(gui, defaults.ptwl, lambda: self.stiffness.value)
         with tabs.add_tab("RWE"), gui.add_form(None) as self.forms["rwe"]:
             self.rwe = RweTab(gui, defaults.rwe)
         with tabs.add_tab("Dither"), gui.add_form(None) as self.forms["dither"]:
@@ -59,16 +56,10 @@ class Panel:
         with tabs.add_tab("Tasks"):
             self.tasks = TaskTab(gui, tasks)
             self.gripper = GripperTab(gui)
-        initial = defaults.stiffness_preset if defaults.stiffness_preset in stiffness_presets else None
-        self.stiffness = gui.add_dropdown(
-            "Stiffness preset (PTWL)",
-            list(stiffness_presets),
-            initial_value=initial or next(iter(stiffness_presets)),
-            order=FORM_ORDER + 0.3,
+        self.stiffness = StiffnessPicker(
+            gui, stiffness_presets, defaults.stiffness_preset, order=FORM_ORDER + 0.3
         )
-        self.ptwl.inputs.append(self.stiffness)  # the PTWL sends its preset: a change rechecks it
-        self.stiffness_info = add_html(gui, self._stiffness_html(), order=FORM_ORDER + 0.4)
-        self.stiffness.on_update(lambda _: show(self.stiffness_info, self._stiffness_html()))
+        self.ptwl.inputs.append(self.stiffness.dropdown)  # the PTWL sends its preset: a change rechecks
         self._requests: dict[str, RequestTab] = {
             tab.behavior: tab for tab in (self.ptwl, self.rwe, self.dither, self.tasks, self.gripper)
         }
@@ -96,10 +87,8 @@ class Panel:
 
     def show_control(self, mine: bool, holder: str | None) -> None:
         """Enable sending only for the client that holds control; say who does."""
-        self._mine = mine
+        self.control.show(mine, holder)
         self.refresh_buttons()
-        self.take_control.visible = not mine
-        show(self.control, control_html(mine, holder))
 
     def show_check(self, behavior: str, check: Check) -> None:
         """What the robot's own rules say of the request as typed: each refusal at its field, in
@@ -150,9 +139,9 @@ class Panel:
 
     def refresh_buttons(self) -> None:
         for behavior, tab in self._requests.items():
-            tab.send.disabled = not (self._mine and self._valid[behavior])
+            tab.send.disabled = not (self.control.mine and self._valid[behavior])
         self.ptwl.step.refresh(self.ptwl.send.disabled, self._valid["ptwl"])
-        self.frames.refresh_buttons(self._mine)
+        self.frames.refresh_buttons(self.control.mine)
 
     def show_frames_known(self, frames: list[dict[str, Any]]) -> None:
         """The robot's task frames: listed, offered in every frame field, deletable if an operator's."""
@@ -165,9 +154,3 @@ class Panel:
 
     def show_scene_task(self, scene: str) -> None:
         self.tasks.show_scene_task(scene)
-
-    def _stiffness_html(self) -> Markup:
-        preset = self.stiffness_presets[str(self.stiffness.value)]
-        return gains_html(
-            preset["stiffness"], preset["damping"], "ptwl-preset", preset.get("description", "")
-        )

@@ -22,8 +22,9 @@ StateFn = Callable[[dict[str, Any], float, "dict[str, Any] | None"], None]  # st
 
 
 class RobotLink:
-    def __init__(self, robot_url: str, token: str | None) -> None:
+    def __init__(self, robot_url: str, token: str | None, local: Catalog) -> None:
         self.robot_url, self.token = robot_url, token
+        self._local = local  # what this console knows (scenes, presets): the handshake compares
         self.client = RobotClient(robot_url, token=token, timeout=HTTP_TIMEOUT_S)
         self.health = TelemetryHealth()
         self._lock = threading.Lock()
@@ -36,7 +37,6 @@ class RobotLink:
 
     def start(
         self,
-        local: Catalog,
         on_met: Callable[[GeometryModel, list[str]], None],
         on_state: StateFn,
         on_command: Callable[[dict[str, Any]], None],
@@ -59,7 +59,7 @@ class RobotLink:
             if up and not was_up:
                 on_reconnected()  # whatever happened while we were away, the robot's records say
 
-        self.handshake = Handshake(self.client, local, on_met)
+        self.handshake = Handshake(self.client, self._local, on_met)
         self.handshake.start()
         self.feed = TelemetryFeed(self.client, state, on_command, link, on_frames)
         self.poller = LinkPoller(self.robot_url, self.token, on_profile)

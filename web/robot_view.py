@@ -16,17 +16,12 @@ import numpy as np
 import viser
 
 from server.models import GeometryModel
-from web.label_places import ATTRACTOR, COMMANDED, PORT
-from web.markers import TargetMarker
-from web.meshes import MeshPart, body_parts
+from web.arm_bodies import ArmBodies
+from web.commanded_marker import CommandedMarker
+from web.label_places import ATTRACTOR, PORT
 from web.sent_values import SentValues
 from web.targets import Pose
 
-RED = (224, 49, 49)
-# Fixtures (the bodies that never move: plate, peg, stand) are drawn see-through, so a target
-# inside or behind one stays in sight: the markers are opaque, drawn first, and show through.
-FIXTURE_OPACITY = 0.55
-STALE_GREY = (150, 150, 150)
 FORCE_COLOR = (200, 40, 210)  # magenta: the arm is orange, so an orange arrow on it hid
 
 
@@ -45,9 +40,6 @@ class RobotView:
         # them (the robot's first answer, a reset): one at a time, or one of them touches a
         # mesh another has just removed.
         self._lock = threading.RLock()
-        self._bodies: dict[str, viser.FrameHandle] = {}
-        self._meshes: list[tuple[viser.MeshHandle, MeshPart]] = []
-        self.stale = False
         self._sent = SentValues()
         scene = server.scene
         scene.set_up_direction("+z")
@@ -80,23 +72,8 @@ class RobotView:
         # Labels sit apart (web/label_places.py): none of them on another.
         for name, text, place in (("attractor", "attractor", ATTRACTOR), ("port", "port", PORT)):
             scene.add_label(f"/{name}/label", text, position=place.offset_m, anchor=place.anchor)
-        self.commanded = TargetMarker(
-            scene, "commanded", "commanded", RED, COMMANDED, distance_anchor="bottom-left"
-        )
-        self.predicted = TargetMarker(
-            scene,
-            "predicted",
-            "commanded: relative to port at start",
-            RED,
-            COMMANDED,
-            wireframe=True,
-            distance_anchor="bottom-left",
-        )
-        self._commanded: tuple[Pose | None, bool] = (None, False)
-        self._port: np.ndarray | None = None
-        self.stale_label = scene.add_label(
-            "/stale", "STALE", position=(0.0, 0.0, 0.9), font_screen_scale=2.0, visible=False
-        )
+        self.commanded = CommandedMarker(scene)
+        self.arm = ArmBodies(scene)
         self.wrench = scene.add_arrows(
             "/wrench",
             np.zeros((1, 2, 3)),
@@ -113,29 +90,8 @@ class RobotView:
             self._load(geometry)
 
     def _load(self, geometry: GeometryModel) -> None:
-        for handle in [*(m for m, _ in self._meshes), *self._bodies.values()]:
-            handle.remove()
-        self._meshes, self._bodies = [], {}
         self._sent.clear()
-        parts = body_parts(geometry)
-        for name, body in geometry.bodies.items():
-            if name not in parts:
-                continue
-            node = "/robot/" + name.replace("/", "_")
-            pose = np.asarray(body.pose, dtype=float)
-            frame = self.server.scene.add_frame(node, show_axes=False, position=pose[0:3], wxyz=pose[3:7])
-            self._bodies[name] = frame
-            for i, part in enumerate(parts[name]):
-                handle = self.server.scene.add_mesh_simple(
-                    f"{node}/mesh{i}",
-                    np.asarray(part.mesh.vertices, dtype=np.float32),
-                    np.asarray(part.mesh.faces, dtype=np.uint32),
-                    color=STALE_GREY if self.stale else part.rgb,
-                    opacity=drawn_opacity(part.opacity, geometry.bodies[name].moving),
-                    cast_shadow=False,  # see configure_default_lights above
-                    receive_shadow=False,
-                )
-                self._meshes.append((handle, part))
+        self.arm.load(geometry)
 
     # ------------------------------------------------------------ telemetry
     def update(self, state: dict) -> None:
@@ -147,7 +103,7 @@ class RobotView:
 
     def _update(self, state: dict) -> None:
         for name, pose in state.get("bodies", {}).items():
-            frame = self._bodies.get(name)
+            frame = self.arm.frames.get(name)
             if frame is not None:
                 self._place(name, frame, pose[0:3], pose[3:7])
         port, attractor = state["port"], state["attractor"]
@@ -160,8 +116,7 @@ class RobotView:
         if self._sent.moved("/wrench", arrow.ravel()):
             self.wrench.points = arrow
         if self._sent.moved("/port-line", tip):
-            self._port = tip
-            self._show_commanded(*self._commanded)
+            self.commanded.port_moved(tip)
 
     def _place(self, key: str, handle: viser.FrameHandle, position: list, wxyz: list) -> None:
         self._sent.place(key, handle, np.array([*position, *wxyz], dtype=float))
@@ -170,29 +125,13 @@ class RobotView:
         """The commanded target: solid where the robot resolved it, an outline where it is only
         predicted from the delayed port; hidden for None."""
         with self._lock:
-            self._show_commanded(target, resolved)
+            self.commanded.show(target, resolved)
 
-    def _show_commanded(self, target: Pose | None, resolved: bool) -> None:
-        self._commanded = (target, resolved)
-        marker = self.commanded if resolved else self.predicted
-        other = self.predicted if resolved else self.commanded
-        other.show(None, None)
-        marker.show(target, self._port)
+    @property
+    def stale(self) -> bool:
+        return self.arm.stale
 
     def set_stale(self, stale: bool, label: str = "STALE") -> None:
         """Grey the robot out (and say so) while its state cannot be trusted; colour it back after."""
         with self._lock:
-            self._set_stale(stale, label)
-
-    def _set_stale(self, stale: bool, label: str) -> None:
-        self.stale = stale
-        self.stale_label.text = label
-        self.stale_label.visible = stale
-        for handle, part in self._meshes:
-            handle.color = STALE_GREY if stale else part.rgb
-
-
-def drawn_opacity(opacity: float, moving: bool) -> float | None:
-    """The opacity a part is drawn with (None: opaque); fixtures never hide what is behind them."""
-    shown = opacity if moving else min(opacity, FIXTURE_OPACITY)
-    return shown if shown < 1.0 else None
+            self.arm.set_stale(stale, label)

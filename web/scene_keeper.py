@@ -32,7 +32,7 @@ class SceneKeeper:
         notifier: Notifier,
         on_drawn: Callable[[str], None],  # the scene now in view (each desk picks its task)
     ) -> None:
-        self._server, self._link, self._frames, self._view = server, link, frames, view
+        self._server, self._link, self._frames, self.view = server, link, frames, view
         self._board, self._log, self._notifier, self._on_drawn = board, log, notifier, on_drawn
         self.ghost: GhostView | None = None  # drawn with the scene, when the twin runs
         self.name = ""
@@ -81,7 +81,7 @@ class SceneKeeper:
         geometry = geometry or client.geometry()
         self._frames.set([f.model_dump() for f in client.frames()])  # a replay's: as recorded
         with self._server.atomic():
-            self._view.load(geometry)
+            self.view.load(geometry)
             if self.ghost is not None:
                 self.ghost.load(geometry)
         self.name = geometry.scene

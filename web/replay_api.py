@@ -1,0 +1,35 @@
+"""The replay's playhead over HTTP (GET/PUT /_replay, server/replay/): what the console's
+transport reads and changes. A live robot has no /_replay."""
+
+from typing import Any
+
+import httpx
+
+from guard.access import bearer_header
+
+
+class ReplayApi:
+    def __init__(self, robot_url: str, token: str | None) -> None:
+        self._url = robot_url + "/_replay"
+        self._headers = bearer_header(token)
+
+    def get(self, timeout_s: float = 2.0) -> dict[str, Any] | None:
+        """The playhead; None if the replay did not answer (or the robot is not a replay)."""
+        try:
+            response = httpx.get(self._url, headers=self._headers, timeout=timeout_s)
+        except httpx.HTTPError:
+            return None
+        return response.json() if response.status_code == 200 else None
+
+    def put(self, **change: Any) -> dict[str, Any] | None:
+        """The change made: the playhead as the replay answered (None if it did not)."""
+        try:
+            response = httpx.put(self._url, json=change, headers=self._headers, timeout=5.0)
+        except httpx.HTTPError:
+            return None
+        return response.json() if response.status_code == 200 else None
+
+
+def replay_status(robot_url: str, token: str | None) -> dict[str, Any] | None:
+    """The playhead if the robot is a replay, else None."""
+    return ReplayApi(robot_url, token).get(timeout_s=5.0)

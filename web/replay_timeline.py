@@ -1,0 +1,79 @@
+"""The replay's time slider and, under it, the strip of the recording's commands
+(web/replay_marks.py). The slider is made again, with the commands marked on it, once the
+recording is read; only a browser's own move of it seeks (a value the console sets itself
+comes with no client)."""
+
+import math
+import threading
+from collections.abc import Callable
+from typing import Any, cast
+
+import viser
+
+from web.markup import Markup, add_html, show
+from web.replay_marks import marks_html, slider_marks
+from web.replay_record import CommandSpan
+
+
+class Timeline:
+    def __init__(
+        self,
+        gui: viser.GuiApi,
+        folder: viser.GuiFolderHandle,
+        status: dict[str, Any],
+        on_seek: Callable[[float], None],
+    ) -> None:
+        self._gui, self._folder, self._on_seek = gui, folder, on_seek
+        self._status = status
+        self._lock = threading.Lock()  # the slider is made again when the marks are known
+        self._marked: list[CommandSpan] | None = None  # the commands marked on the timeline
+        self._note = "reading the recording"
+        with folder:
+            self._slider = self._add_slider(None, None)
+            self._strip = add_html(gui, self._strip_html())
+
+    def _add_slider(self, marks: tuple[float | tuple[float, str], ...] | None, order: float | None) -> Any:
+        slider = self._gui.add_slider(
+            "Time [s]",
+            min=0.0,
+            max=max(slider_end(self._status["duration_s"]), 0.01),
+            step=0.01,
+            initial_value=round(self._status["position_s"], 2) if marks is not None else 0.0,
+            marks=marks,
+            order=order,
+        )
+
+        @slider.on_update
+        def _(event: viser.GuiEvent) -> None:
+            if event.client is not None:  # a browser moved it: seek
+                self._on_seek(float(slider.value))
+
+        return slider
+
+    def mark(self, commands: list[CommandSpan], duration_s: float) -> None:
+        """The recording's commands, on the slider and the strip: both show them, or neither."""
+        with self._lock, self._folder:
+            old = self._slider
+            self._slider = self._add_slider(slider_marks(commands, slider_end(duration_s)), old.order)
+            old.remove()
+        self._marked = commands
+        show(self._strip, self._strip_html())
+
+    def cannot_mark(self, note: str) -> None:
+        self._note = note
+        show(self._strip, self._strip_html())
+
+    def show(self, status: dict[str, Any]) -> None:
+        """The playhead as the replay said."""
+        self._status = status
+        with self._lock:
+            cast(Any, self._slider).value = round(status["position_s"], 2)  # no client: not a seek
+        show(self._strip, self._strip_html())
+
+    def _strip_html(self) -> Markup:
+        return marks_html(self._marked, self._status["duration_s"], self._status["position_s"], self._note)
+
+
+def slider_end(duration_s: float) -> float:
+    """The slider's last value: the duration rounded down to its 0.01 s step (never past the end)."""
+    return math.floor(duration_s * 100.0) / 100.0
