@@ -10,7 +10,7 @@ from robot_sim.behaviors import behavior_for
 from robot_sim.params import PtwlParams
 from robot_sim.sim import Simulation
 from robot_sim.task_frames import TaskFrame, unit_quaternion
-from web.twin import remaining_ptwl
+from web.twin_sim import remaining_ptwl
 
 
 def test_free_space_prediction_within_2_mm_at_3_s_round_trip() -> None:

@@ -26,7 +26,8 @@ from web.robot_link import RobotLink
 from web.seat import ControlSeat, operator_name
 from web.stop_sender import StopSender
 from web.targets import Pose, ptwl_target
-from web.twin import GroundTwin, Sent, point_from_state
+from web.twin import GroundTwin, Sent
+from web.twin_sim import point_from_state
 
 if TYPE_CHECKING:
     from web.desk import Desk

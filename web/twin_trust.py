@@ -10,7 +10,8 @@ ghost is marked UNSURE whenever that judgment does not cover what it shows now:
 
 from dataclasses import dataclass
 
-from web.twin import GroundTwin, describe_error
+from web.twin import GroundTwin
+from web.twin_judge import describe_error
 
 LAG_LIMIT_S = 0.2
 JUDGED_WITHIN_S = 1.0  # states come every 20 ms, each judging a prediction: a second is many

@@ -1,0 +1,197 @@
+"""The ground twin's own simulation (web/twin.py): the console's copy of the robot model, the
+commands queued in it (each no earlier than it can reach the robot), and the robot-clock
+arithmetic that says when that is.
+
+Not thread-safe: only the twin's thread runs it."""
+
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from robot_sim.behaviors import BehaviorParams, behavior_for
+from robot_sim.behaviors.base import Pose
+from robot_sim.errors import UnknownNameError
+from robot_sim.gains import Gains
+from robot_sim.geometry import body_poses, moving_bodies
+from robot_sim.params import PtwlParams
+from robot_sim.pose_math import rotvec_from_to
+from robot_sim.sim import Simulation
+from robot_sim.task_frames import TaskFrames
+from robot_sim.telemetry import gains_of
+
+
+@dataclass
+class Sent:
+    """A command this console sent: `params` as validated, `sent_wall` its Unix send time (also
+    its `sent_at` stamp), `pending` a view of whether the robot has yet to start it (the console's
+    command history knows, once the robot's 202 has named it)."""
+
+    params: BehaviorParams
+    sent_wall: float
+    pending: Callable[[], bool]
+
+
+@dataclass(frozen=True)
+class TwinPoint:
+    """The twin's state now, to start another simulation from (a preview: web/preview.py)."""
+
+    scene: str
+    sim_time: float
+    joint_positions: tuple[float, ...]
+    attractor: Pose
+    gains: Gains
+    busy: bool  # a command still runs or waits in the twin
+    frames: TaskFrames  # the robot's, as this console knows them
+
+
+@dataclass(frozen=True)
+class Prediction:
+    sim_time: float
+    port: tuple[np.ndarray, np.ndarray]  # position [m], wxyz
+    bodies: dict[str, list[float]]
+
+
+def robot_wall_s(state: dict[str, Any]) -> float:
+    """[s] the robot's wall clock at the state's sim_time: `taken_at`, stamped on its simulation
+    thread; else `sent_at` (a robot from before `taken_at`), which a busy event loop makes late."""
+    return float(state.get("taken_at", state["sent_at"]))
+
+
+def arrival_sim_s(t_state: float, taken_at: float, sent_wall: float, uplink_s: float) -> float:
+    """[s] the robot's sim time when a command sent at `sent_wall` reaches it, by a state's
+    (sim_time, taken_at) pair: the robot runs paced to its wall clock."""
+    return t_state + (sent_wall + uplink_s - taken_at)
+
+
+def point_from_state(state: dict[str, Any], frames: TaskFrames) -> TwinPoint:
+    """A telemetry state as a start for a preview: where the robot was when it sent the state
+    (the present on a short link, or when no twin runs)."""
+    return TwinPoint(
+        state["scene"],
+        float(state["sim_time"]),
+        tuple(state["joint_positions"]),
+        _pose(state["attractor"]),
+        gains_of(state["gains"]),
+        state.get("active_command") is not None,
+        frames,
+    )
+
+
+def _pose(message: dict[str, Any]) -> Pose:
+    p, q = message["position"], message["quaternion"]
+    return Pose((p[0], p[1], p[2]), (q[0], q[1], q[2], q[3]))
+
+
+def remaining_ptwl(message: dict[str, Any], port: Pose, elapsed_s: float) -> PtwlParams | None:
+    """The rest of the robot's running PTWL as a PTWL from `port`: toward the goal the robot
+    resolved, over the time its attractor still had to travel."""
+    goal = message.get("goal")
+    if message.get("behavior") != "ptwl" or goal is None:  # a command event names it `behavior`
+        return None
+    params = PtwlParams.model_validate(message["params"])
+    assert params.watchdog is not None
+    left_s = max(params.duration - elapsed_s, 1e-3)
+    p_goal, q_goal = np.asarray(goal["position"]), np.asarray(goal["quaternion"])
+    translation = p_goal - np.asarray(port.position)
+    rotation = rotvec_from_to(np.asarray(port.quaternion), q_goal)
+    return params.model_copy(
+        update={
+            "translation": translation.tolist(),
+            "rotation": rotation.tolist(),
+            "frame": "base",
+            "duration": left_s,
+            "watchdog": max(params.watchdog - elapsed_s, left_s),
+        }
+    )
+
+
+class TwinSim:
+    def __init__(self) -> None:
+        self.sim: Simulation | None = None
+        self._moving: list[int] = []  # the bodies that move, as the ghost draws them
+        self._queue: deque[tuple[BehaviorParams, float]] = deque()  # (params, not before [sim s])
+
+    def load(self, scene: str) -> bool:
+        """The twin runs `scene`'s model (made anew if it ran another); True if it was made."""
+        if self.sim is not None and self.sim.scene.name == scene:
+            return False
+        self.sim = Simulation(scene)
+        self._moving = moving_bodies(self.sim.model)
+        return True
+
+    def restart(
+        self,
+        state: dict[str, Any],
+        running: dict[str, Any] | None,
+        sent: list[Sent],
+        uplink_s: float,
+        frames: TaskFrames,
+    ) -> None:
+        """From a telemetry state: the robot's running PTWL (its remaining part) first, then
+        this console's commands the robot has not started, each at its arrival."""
+        sim = self.sim
+        assert sim is not None
+        t_state, taken_at = float(state["sim_time"]), robot_wall_s(state)
+        sim.frames = frames
+        gains_now = gains_of(state["gains"])
+        if gains_now.frame not in frames.names():  # a frame whose news is still on the link
+            gains_now = gains_now.in_frame("base")
+        sim.sync_to(t_state, state["joint_positions"], _pose(state["attractor"]), gains_now)
+        self._queue.clear()
+        if running is not None and running.get("started_at") is not None:
+            elapsed_s = taken_at - float(running["started_at"])  # both the robot's wall clock
+            port = sim.state().port  # after sync_to: the kinematics of the reported joints
+            rest = remaining_ptwl(running, port, elapsed_s)
+            if rest is not None:
+                self._queue.append((rest, t_state))
+        self.queue_at_arrival(sent, t_state, taken_at, uplink_s)
+
+    def queue_at_arrival(self, sends: list[Sent], t_state: float, taken_at: float, uplink_s: float) -> None:
+        """Each no earlier than it can reach the robot, by the (sim_time, taken_at) of a state."""
+        for s in sends:
+            self._queue.append((s.params, arrival_sim_s(t_state, taken_at, s.sent_wall, uplink_s)))
+
+    def run_to(self, target_s: float, on_step: Callable[[float, np.ndarray], None]) -> None:
+        """Step to `target_s`, starting each queued command at its time; `on_step(sim time,
+        port position)` after every step."""
+        sim = self.sim
+        assert sim is not None
+        while sim.time < target_s:
+            if sim.behavior is None and self._queue and sim.time >= self._queue[0][1]:
+                self._start(sim, self._queue.popleft()[0])
+            sim.step()
+            on_step(sim.time, sim.controller.p_world_port)
+
+    @staticmethod
+    def _start(sim: Simulation, params: BehaviorParams) -> None:
+        """Start a command in the twin; one naming a frame the console has not heard of yet
+        (its news is still on the link) is left out: the twin holds, and its error readout shows."""
+        try:
+            sim.start(behavior_for(params))
+        except UnknownNameError:
+            sim.behavior = None
+
+    def prediction(self) -> Prediction:
+        sim = self.sim
+        assert sim is not None
+        port = (sim.controller.p_world_port.copy(), sim.controller.q_world_port.copy())
+        return Prediction(sim.time, port, body_poses(sim.model, sim.data, self._moving))
+
+    def point(self, frames: TaskFrames) -> TwinPoint:
+        """Where the twin is now, to start a preview from."""
+        sim = self.sim
+        assert sim is not None
+        state_now = sim.state()
+        busy = sim.behavior is not None or bool(self._queue)
+        return TwinPoint(
+            sim.scene.name,
+            sim.time,
+            state_now.joint_positions,
+            state_now.attractor,
+            sim.controller.gains,
+            busy,
+            frames,
+        )
