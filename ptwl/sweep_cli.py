@@ -12,6 +12,7 @@ from typing import Any
 from experiments.sweep.spec import BACKENDS, OPERATORS, SweepSettings
 from latency.named import named_profiles
 from latency.profile import MAX_DELAY_S
+from robot_sim.params import MAX_AGE_S
 from robot_sim.policies import POLICIES
 
 
@@ -57,6 +58,7 @@ def settings_from(args: argparse.Namespace, argv: list[str]) -> SweepSettings:
         think_s=args.think,
         seed=args.seed,
         profile=args.profile,
+        max_age_s=args.max_age,
         workers=args.workers,
         backend=args.backend,
         ray_address=args.ray_address,
@@ -109,6 +111,13 @@ def add_sweep_parser(sub: "argparse._SubParsersAction[argparse.ArgumentParser]")
     sweep.add_argument("--seed", type=_ranged(int, 0, 2**31 - 1), default=0, help="first scene seed")
     sweep.add_argument(
         "--profile", choices=sorted(named_profiles()), default=None, help="a named link whose blackouts apply"
+    )
+    sweep.add_argument(
+        "--max-age",
+        type=_ranged(float, 0.001, MAX_AGE_S, " s"),  # from one control tick to the API's bound
+        default=None,
+        help="[s] every command's max_age (stamped sent_at): one older when it would start expires, "
+        "and the operator sends it again; default: commands never expire",
     )
     sweep.add_argument("--workers", type=_ranged(int, 1, 1024), default=os.cpu_count() or 1)
     sweep.add_argument("--backend", choices=BACKENDS, default="local")

@@ -72,6 +72,12 @@ def test_a_sweep_of_other_settings_is_refused_with_exit_2(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "holds a sweep with jitter_s = 0.5, not 0.0" in err
     assert (tmp_path / "sweep.json").read_bytes() == before
+    # A max age changes what a trial is: its rows are not another's.
+    assert main([*SWEEP, "--max-age", "3", "--out", str(tmp_path)]) == 2
+    assert "holds a sweep with jitter_s = 0.5" in capsys.readouterr().err
+    _write_json(tmp_path, _settings(tmp_path), [], 0, 0.0)
+    assert main([*SWEEP, "--max-age", "3", "--out", str(tmp_path)]) == 2
+    assert "holds a sweep with max_age_s = None, not 3.0" in capsys.readouterr().err
 
 
 def test_new_empty_and_same_grid_directories_are_accepted(tmp_path: Path) -> None:

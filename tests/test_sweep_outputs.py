@@ -234,6 +234,7 @@ def test_bad_arguments_name_the_argument_and_the_range(capsys: pytest.CaptureFix
         (["--rtt", "0,-1"], "each RTT must be in [0, 600] s"),
         (["--operator", "pilot"], "operators from ground, onboard"),
         (["--loss", "1.5"], "must be in [0, 0.9]"),
+        (["--max-age", "0"], "argument --max-age: must be in [0.001, 86400] s, got 0"),
     ):
         with pytest.raises(SystemExit) as exit_info:
             main(["sweep", "--task", "lid", "--out", "unused", *args])

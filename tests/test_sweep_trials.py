@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from experiments.sweep.operators import PATIENCE_S, THINK_SPREAD, latest_end_s
-from experiments.sweep.robot import Accepted, Post, Query, Status, VirtualRobot
+from experiments.sweep.operators import PATIENCE_S, THINK_SPREAD, UNSTARTED_MAX, latest_end_s
+from experiments.sweep.robot import VIRTUAL_EPOCH_S, Accepted, Post, Query, Status, VirtualRobot
 from experiments.sweep.spec import TrialSpec
 from experiments.sweep.trial import blackout_s, row, run_trial, simulate
 from latency.profile import Blackout, LinkProfile, Loss
@@ -117,7 +117,7 @@ def test_a_post_that_arrives_twice_runs_once_and_a_status_says_what_the_robot_kn
     done = None
     while done is None:
         done = robot.tick()
-    assert done.tag == "ground-1" and robot.handle(Query("ground-1")).report is done.report
+    assert done.tag == "ground-1" and robot.handle(Query("ground-1")).outcome == done.outcome
 
 
 def test_blackout_time_counts_each_repeat_of_a_window_inside_the_trial() -> None:
@@ -166,4 +166,63 @@ def test_a_quiet_stretch_ends_at_the_next_event_or_the_first_command_that_ends()
     robot.handle(Post("ground-1", PtwlParams(translation=[0.0, 0.0, 0.005], duration=0.2)))
     done = robot.tick_until(5.0)
     assert done is not None and done.tag == "ground-1"
-    assert robot.sim.time == pytest.approx(done.report.ended_at + TICK_S, abs=TICK_S)  # not 5 s
+    report = done.outcome.report
+    assert report is not None
+    assert robot.sim.time == pytest.approx(report.ended_at + TICK_S, abs=TICK_S)  # not 5 s
+
+
+# --------------------------------------------------------------------------- --max-age
+def test_a_command_older_than_its_max_age_at_its_start_ends_expired_unrun_and_is_announced() -> None:
+    """The virtual robot runs the server's expiry: judged when the command would start (after
+    its wait in the queue), announced as it ends, with no report (it never ran)."""
+    robot = VirtualRobot("quick_connect", 0)
+    long_move = PtwlParams(translation=[0.0, 0.0, 0.005], duration=0.5)
+    stamp = VIRTUAL_EPOCH_S  # sent at the trial's t = 0
+    robot.handle(Post("ground-1", long_move))
+    robot.handle(Post("ground-2", long_move.model_copy(update={"sent_at": stamp, "max_age": 0.2})))
+    first = robot.tick_until(10.0)
+    assert first is not None and first.tag == "ground-1" and first.outcome.report is not None
+    second = robot.tick()  # ground-2 waited 0.5 s in the queue: 0.2 s was its age limit
+    assert second is not None and second.tag == "ground-2"
+    assert second.outcome.exit == "expired" and second.outcome.report is None
+    assert "max_age" in second.outcome.detail
+    assert robot.handle(Query("ground-2")) == Status("ground-2", True, second.outcome)
+    assert robot.figures.steps[-1].report.started_at < 0.6  # only ground-1 ran
+
+
+def test_max_age_is_stamped_on_every_command_and_one_that_expires_is_sent_again() -> None:
+    spec = TrialSpec("lid", "ground", rtt_s=2.0, jitter_s=0.0, loss=0.0, seed=1, think_s=2.0, max_age_s=1.5)
+    trial = simulate(spec)
+    stamps = [(r.params.sent_at, r.params.max_age) for r in trial.robot.submitted.values()]
+    assert all(max_age == 1.5 and sent_at is not None for sent_at, max_age in stamps)
+    # Each arrives 1 s after its stamp and starts at once: younger than 1.5 s, none expires.
+    assert row(trial)["unstarted"] == 0 and trial.robot.sim.task().success
+    plain = simulate(TrialSpec("lid", "ground", 2.0, 0.0, 0.0, 1, 2.0))
+    assert row(trial)["task_time_s"] == row(plain)["task_time_s"]  # expiry changed nothing here
+
+
+def test_an_operator_whose_every_command_expires_on_the_way_gives_up_after_three() -> None:
+    """At 4 s round trip each command is 2 s old when it arrives: a 1 s max age expires every
+    one; the operator sends it again, freshly stamped, and gives up after UNSTARTED_MAX."""
+    spec = TrialSpec("lid", "ground", rtt_s=4.0, jitter_s=0.0, loss=0.0, seed=1, think_s=2.0, max_age_s=1.0)
+    trial = simulate(spec)
+    r = row(trial)
+    assert (r["end"], r["unstarted"], r["commands_sent"]) == ("expired", UNSTARTED_MAX, UNSTARTED_MAX)
+    assert f"{UNSTARTED_MAX} commands in a row ended unrun" in r["why"] and not r["success"]
+    assert r["behaviors"] == 0 and trial.robot.figures.first_start_s is None  # nothing ran
+    stamps = [rec.params.sent_at for rec in trial.robot.submitted.values()]
+    # Sent at 0, then each a round trip later (the expiry's news comes down 2 s after it arrived;
+    # each turn costs the ticks the robot takes to judge and announce it).
+    assert [s - VIRTUAL_EPOCH_S for s in stamps if s is not None] == pytest.approx(
+        [0.0, 4.0, 8.0], abs=6 * TICK_S
+    )
+    assert r["operator_time_s"] == pytest.approx(12.0, abs=6 * TICK_S)
+
+
+def test_jitter_past_the_max_age_expires_some_commands_and_the_task_still_completes() -> None:
+    """The question expiry exists for: with +-1 s jitter on a 2 s round trip some commands are
+    older than 1.6 s when they arrive; they expire instead of running late, and are sent again."""
+    spec = TrialSpec("lid", "ground", rtt_s=2.0, jitter_s=1.0, loss=0.0, seed=3, think_s=2.0, max_age_s=1.6)
+    r = row(simulate(spec))
+    assert r["success"] and r["unstarted"] >= 1
+    assert r["commands_sent"] == r["behaviors"] + r["gripper"] + r["unstarted"]  # each expiry sent again

@@ -9,12 +9,17 @@ up the link comes back as a list of requests; `wake_at` says when it next wants 
 nothing arrives. A lost POST or event is handled as an operator would: once the report is
 overdue, ask for the command's status (GET, by its tag); if the robot never got it, send it
 again. Nothing waits forever: every wait has a deadline that leads to a question.
+
+With a max age (`ptwl sweep --max-age`) every command carries `sent_at` (the operator's clock as
+Unix time) and `max_age`, as the console's do; one the robot expired (or ended without running
+for another reason) is sent again as a new command, up to UNSTARTED_MAX times in a row, after
+which the operator gives up: the link is slower than the age it allows.
 """
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
-from experiments.sweep.robot import Accepted, Done, Post, Query, Reply, Request, Status
+from experiments.sweep.robot import Accepted, Done, Outcome, Post, Query, Reply, Request, Status
 from experiments.sweep.spec import TrialSpec
 from robot_sim.behaviors import BehaviorReport, Pose
 from robot_sim.executor import CommandParams
@@ -24,6 +29,7 @@ from robot_sim.policies import Machine, policy_for
 PATIENCE_S = 2.0  # [s] past a behavior's latest possible end (and the round trip) before asking
 POLL_S = 10.0  # [s] between questions about a state machine, whose length nobody knows ahead
 THINK_SPREAD = (0.5, 1.5)  # a think time is uniform in this range times the mean
+UNSTARTED_MAX = 3  # commands in a row that end without running before the operator gives up
 
 
 def latest_end_s(params: CommandParams) -> float | None:
@@ -44,11 +50,14 @@ class Pending:
 
 
 class Operator(ABC):
-    def __init__(self, spec: TrialSpec) -> None:
+    def __init__(self, spec: TrialSpec, epoch_s: float) -> None:
         self.spec = spec
+        self._epoch_s = epoch_s  # [s] Unix time at the operator's t = 0 (`sent_at` stamps)
         self.commands_sent = 0  # POSTs, a resend included
         self.wait_cycles = 0  # commands waited for (move-and-wait cycles)
         self.requeries = 0  # GETs after a report was overdue
+        self.unstarted = 0  # commands that ended without running (expired), sent again
+        self._unstarted_in_row = 0
         self.think_s = 0.0  # [s] thought in total
         self.pending: Pending | None = None
         self.end: str | None = None  # how the task ended, as the operator learned it
@@ -79,12 +88,10 @@ class Operator(ABC):
         if pending is None or message.tag != pending.tag or isinstance(message, Accepted):
             return []  # stale (an answer to an earlier question), or only an acknowledgement
         if isinstance(message, Done):
-            self._report(now, message.report)
-            return []
+            return self._outcome(now, message.outcome)
         assert isinstance(message, Status)
-        if message.report is not None:
-            self._report(now, message.report)
-            return []
+        if message.outcome is not None:
+            return self._outcome(now, message.outcome)
         if message.known:  # still queued or running: ask again later
             pending.deadline_s = now + self._patience(pending.params)
             return []
@@ -111,7 +118,29 @@ class Operator(ABC):
         latest = latest_end_s(params)
         return self.spec.rtt_s + (POLL_S if latest is None else latest + PATIENCE_S)
 
+    def _outcome(self, now: float, outcome: Outcome) -> list[Request]:
+        pending = self.pending
+        assert pending is not None
+        if outcome.report is not None:
+            self._unstarted_in_row = 0
+            self._report(now, outcome.report)
+            return []
+        # It never ran (expired on the way or in the queue): the operator sends it again, freshly
+        # stamped, unless the link has made every recent send too old to run.
+        self.unstarted += 1
+        self._unstarted_in_row += 1
+        if self._unstarted_in_row >= UNSTARTED_MAX:
+            self.pending = None
+            self._finish(
+                now, outcome.exit, f"{UNSTARTED_MAX} commands in a row ended unrun: {outcome.detail}"
+            )
+            return []
+        return [self._post(now, pending.params)]
+
     def _post(self, now: float, params: CommandParams, resend: bool = False) -> Post:
+        max_age_s = self.spec.max_age_s
+        if max_age_s is not None:
+            params = params.model_copy(update={"sent_at": self._epoch_s + now, "max_age": max_age_s})
         if resend:
             assert self.pending is not None
             tag = self.pending.tag  # the robot runs a tag once, however often it arrives
@@ -134,8 +163,8 @@ class Operator(ABC):
 class GroundOperator(Operator):
     """The task's policy on the ground: one behavior per round trip, with think time."""
 
-    def __init__(self, spec: TrialSpec) -> None:
-        super().__init__(spec)
+    def __init__(self, spec: TrialSpec, epoch_s: float) -> None:
+        super().__init__(spec, epoch_s)
         self.machine = Machine(policy_for(spec.task))
         self._think = spec.rng("think")
 
@@ -163,5 +192,6 @@ class OnboardOperator(Operator):
         self._finish(now, report.exit.value, report.detail)
 
 
-def operator_for(spec: TrialSpec) -> Operator:
-    return GroundOperator(spec) if spec.operator == "ground" else OnboardOperator(spec)
+def operator_for(spec: TrialSpec, epoch_s: float) -> Operator:
+    """The spec's operator, its clock's t = 0 at Unix time `epoch_s`."""
+    return GroundOperator(spec, epoch_s) if spec.operator == "ground" else OnboardOperator(spec, epoch_s)

@@ -18,19 +18,22 @@ from typing import Any
 import httpx
 
 from experiments.sweep.operators import Operator, operator_for
-from experiments.sweep.robot import Accepted, Done, Post, Request, Status
+from experiments.sweep.robot import Accepted, Done, Outcome, Post, Request, Status
 from experiments.sweep.spec import SweepSettings, TrialSpec
 from experiments.sweep.trial import MAX_TRIAL_S, run_trial
-from robot_sim.behaviors import BehaviorReport, Pose
+from robot_sim.behaviors import Pose
 from robot_sim.finite import number_or_nan, report_from_json
 from server.client import RobotClient, RobotError
 
 AGREEMENT = 0.05  # the real mean task time within 5 % of the virtual one
 
 
-def report_of(event: dict[str, Any]) -> BehaviorReport:
-    """A BehaviorReport from a command's status or event (the fields a policy reads)."""
-    return report_from_json(event, 0.0, number_or_nan(event["duration"]))
+def outcome_of(event: dict[str, Any]) -> Outcome:
+    """How a command ended, from its status or `done` event: with a BehaviorReport (the fields a
+    policy reads) if it ran, none if it never started (expired, dropped)."""
+    ran = event.get("started_at") is not None
+    report = report_from_json(event, 0.0, number_or_nan(event["duration"])) if ran else None
+    return Outcome(str(event["exit"]), str(event.get("detail") or ""), report)
 
 
 class LinkedOperator:
@@ -54,7 +57,7 @@ class LinkedOperator:
                     and message["status"] == "done"
                     and sender.startswith(self.prefix)
                 ):
-                    self.inbox.put(Done(sender.removeprefix(self.prefix), report_of(message)))
+                    self.inbox.put(Done(sender.removeprefix(self.prefix), outcome_of(message)))
         except Exception:  # the link closed at the end of the run: nothing more to hear
             return
 
@@ -72,8 +75,8 @@ class LinkedOperator:
                 self.inbox.put(Accepted(request.tag))
                 return
             status = self._status(request.tag)
-            report = report_of(status) if status is not None and status["status"] == "done" else None
-            self.inbox.put(Status(request.tag, status is not None, report))
+            outcome = outcome_of(status) if status is not None and status["status"] == "done" else None
+            self.inbox.put(Status(request.tag, status is not None, outcome))
         except (httpx.HTTPError, RobotError):
             return  # lost: the operator asks again once its patience runs out
 
@@ -85,7 +88,8 @@ class LinkedOperator:
 
     def close(self) -> None:
         self._pool.shutdown(wait=True)
-        self.client.close()
+        self.client.close()  # ends the telemetry socket, and with it the listener
+        self._listener.join(timeout=5.0)
 
 
 def run_real(spec: TrialSpec, robot_url: str, link_url: str) -> dict[str, Any]:
@@ -96,8 +100,8 @@ def run_real(spec: TrialSpec, robot_url: str, link_url: str) -> dict[str, Any]:
     prefix = f"rt{spec.seed}-{time.time_ns()}-"
     carrier = LinkedOperator(link_url, prefix)
     time.sleep(0.3 + spec.rtt_s / 2.0)  # the telemetry socket is open before the first send
-    operator: Operator = operator_for(spec)
-    t0 = time.monotonic()
+    t0, epoch_s = time.monotonic(), time.time()  # the operator's t = 0, and as Unix time
+    operator: Operator = operator_for(spec, epoch_s)
 
     def now() -> float:
         return time.monotonic() - t0

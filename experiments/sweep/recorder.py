@@ -102,15 +102,15 @@ class TrialRecorder:
         if status != "queued":
             event["started_at"] = self._started_s.setdefault(tag, ns / 1e9)
         if done is not None:
-            r = done.report
+            event.update(exit=done.outcome.exit, detail=done.outcome.detail)
+        if done is not None and done.outcome.report is not None:
+            r = done.outcome.report
             event.update(
-                exit=r.exit.value,
                 ended_at=r.ended_at,
                 duration=r.duration,
                 peak_force=r.peak_force,
                 peak_torque=r.peak_torque,
                 final_wrench=list(r.final_wrench),
                 final_port=r.final_port.as_dict(),
-                detail=r.detail,
             )
         self._out.command(event, ns)

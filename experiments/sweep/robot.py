@@ -43,12 +43,27 @@ class Accepted:
 
 
 @dataclass(frozen=True)
+class Outcome:
+    """How a command ended: its exit and detail, and the report of its run (None: it never ran,
+    e.g. `expired` in the queue, or `aborted` by STOP or for a frame it named that was gone)."""
+
+    exit: str
+    detail: str
+    report: BehaviorReport | None
+
+    @staticmethod
+    def of(record: CommandRecord) -> "Outcome":
+        assert record.exit is not None
+        return Outcome(record.exit, record.detail or "", record.report)
+
+
+@dataclass(frozen=True)
 class Status:
-    """The answer to a Query: unknown (the POST never arrived), still going, or its report."""
+    """The answer to a Query: unknown (the POST never arrived), still going, or how it ended."""
 
     tag: str
     known: bool
-    report: BehaviorReport | None  # set when done
+    outcome: Outcome | None  # set when done
 
 
 @dataclass(frozen=True)
@@ -56,7 +71,7 @@ class Done:
     """The command event of a command that ended (a WebSocket message: it can be lost)."""
 
     tag: str
-    report: BehaviorReport
+    outcome: Outcome
 
 
 Request = Post | Query
@@ -86,11 +101,18 @@ class Figures:
 class VirtualRobot:
     def __init__(self, task: str, seed: int) -> None:
         self.sim = Simulation(task, seed)
-        self.book = CommandBook(COMMAND_QUEUE_MAX, COMMAND_HISTORY_MAX, self.unix_time_s, instance="virtual")
+        self.book = CommandBook(
+            COMMAND_QUEUE_MAX, COMMAND_HISTORY_MAX, self.unix_time_s, self._changed, instance="virtual"
+        )
         self.commands = CommandRunner(self.sim, self.book)
         self.figures = Figures()
         # Every command's record by its tag, in the order they arrived (the tag is its sender).
         self.submitted: dict[str, CommandRecord] = {}
+        self._ended: list[CommandRecord] = []  # ended, not announced yet, in the order they ended
+
+    def _changed(self, record: CommandRecord) -> None:
+        if record.status == "done":  # run, or not: expired, dropped by STOP, refused at its start
+            self._ended.append(record)
 
     @property
     def running_tag(self) -> str | None:
@@ -110,11 +132,14 @@ class VirtualRobot:
             if request.tag not in self.submitted:  # a resent POST that did arrive is not run twice
                 self.submitted[request.tag] = self.book.submit(request.params, sender=request.tag)
             return Accepted(request.tag)
-        record = self.submitted.get(request.tag)  # its report is set as it ends
-        return Status(request.tag, record is not None, record.report if record is not None else None)
+        record = self.submitted.get(request.tag)  # its exit is set as it ends
+        if record is None:
+            return Status(request.tag, False, None)
+        return Status(request.tag, True, Outcome.of(record) if record.status == "done" else None)
 
     def tick(self) -> Done | None:
-        """One control period: start the next queued command if idle, step; an ended command."""
+        """One control period: start the next queued command if idle, step; a command that ended
+        (run or not: the server announces each as it ends), one a tick, in the order they ended."""
         sim, figures = self.sim, self.figures
         if self.commands.start_next() is not None and figures.first_start_s is None:
             figures.first_start_s = sim.time
@@ -123,15 +148,16 @@ class VirtualRobot:
             figures.force_sum += sim.controller.force_norm
             figures.torque_sum += sim.controller.torque_norm
             figures.ticks += 1
-        if report is None:
+        if report is not None:
+            figures.at_last_end = (figures.force_sum, figures.torque_sum, figures.ticks)
+            figures.steps.append(self.commands.behavior_ended(report)[1].step)
+        if not self._ended:
             return None
-        figures.at_last_end = (figures.force_sum, figures.torque_sum, figures.ticks)
-        running, ended = self.commands.behavior_ended(report)
-        figures.steps.append(ended.step)
-        if ended.command is None:
-            return None
-        assert running is not None and running.sender is not None
-        return Done(running.sender, ended.command)
+        # The oldest; any others follow on the next ticks (the sweeps' operators keep one command
+        # in flight, so there is one).
+        record = self._ended.pop(0)
+        assert record.sender is not None
+        return Done(record.sender, Outcome.of(record))
 
     def tick_until(self, until_s: float) -> Done | None:
         """One tick, then more while nothing else can happen before `until_s` (the next instant

@@ -23,6 +23,7 @@ class TrialSpec:
     seed: int  # the scene's misalignments; with the trial's other settings, every random draw
     think_s: float = 2.0  # [s] an operator's mean think time between commands: uniform 0.5-1.5x
     profile: str | None = None  # a named link profile whose blackouts apply (its delays do not)
+    max_age_s: float | None = None  # [s] every command's max_age (None: commands never expire)
 
     def key(self) -> tuple[str, ...]:
         """As written in trials.csv (repr of floats: exact)."""
@@ -80,10 +81,11 @@ def grid(
     seed: int,
     think_s: float,
     profile: str | None,
+    max_age_s: float | None = None,
 ) -> list[TrialSpec]:
     """Every trial, in the order the outputs list them: operator, RTT, then seed."""
     return [
-        TrialSpec(task, operator, rtt, jitter_s, loss, seed + i, think_s, profile)
+        TrialSpec(task, operator, rtt, jitter_s, loss, seed + i, think_s, profile, max_age_s)
         for operator in operators
         for rtt in rtts_s
         for i in range(trials)
@@ -102,6 +104,7 @@ class SweepSettings:
     think_s: float = 2.0
     seed: int = 0
     profile: str | None = None
+    max_age_s: float | None = None
     workers: int = 1
     backend: str = "local"
     ray_address: str | None = None
@@ -119,4 +122,5 @@ class SweepSettings:
             self.seed,
             self.think_s,
             self.profile,
+            self.max_age_s,
         )

@@ -4,7 +4,8 @@ sweep.json).
 
 Re-running into the same directory runs only the trials missing from trials.csv; Ctrl-C keeps
 every trial that finished (whole rows) and leaves sweep.json saying how many of the grid are
-done. Settings that change what a trial is (task, jitter, loss, think time, seed, profile)
+done. Settings that change what a trial is (task, jitter, loss, think time, seed, profile,
+max age)
 must match the directory's; RTTs, operators and the trial count may grow.
 """
 
@@ -29,7 +30,7 @@ from experiments.sweep.table import RowWriter, read_rows, row_key, write_sorted
 
 # What a trial is: a directory's trials are only reusable under the same values.
 RECORDINGS = "recordings"  # --record: one MCAP per trial, named by TrialSpec.file_stem()
-TRIAL_SETTINGS = ("task", "jitter_s", "loss", "think_s", "seed", "profile")
+TRIAL_SETTINGS = ("task", "jitter_s", "loss", "think_s", "seed", "profile", "max_age_s")
 
 
 class Progress:

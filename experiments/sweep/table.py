@@ -21,6 +21,10 @@ def _optional_str(text: str) -> str | None:
     return text or None
 
 
+def _optional_float(text: str) -> float | None:
+    return float(text) if text else None
+
+
 def _bool(text: str) -> bool:
     return text == "1"
 
@@ -35,15 +39,17 @@ COLUMNS: list[tuple[str, Callable[[str], Any], str]] = [
     ("seed", int, "the scene's misalignments and every draw of the trial"),
     ("think_s", float, "[s] the operator's mean think time between commands"),
     ("profile", _optional_str, "named link profile whose blackouts applied"),
+    ("max_age_s", _optional_float, "[s] every command's max_age (empty: commands never expire)"),
     ("success", _bool, "the scene's predicate when the operator learned the outcome"),
     ("progress", float, "the predicate's progress value then (depth, angle, error: its unit)"),
-    ("end", str, "how the machine ended: completed, failed, aborted, fault, timed_out"),
+    ("end", str, "how the machine ended: completed, failed, aborted, fault, timed_out; expired: gave up"),
     ("why", str, "the machine's reason"),
     ("task_time_s", float, "[s] on the robot, first behavior's start to last one's end"),
     ("operator_time_s", float, "[s] from the first send until the operator knew the outcome"),
     ("commands_sent", int, "POSTs, resends included"),
     ("wait_cycles", int, "commands the operator waited for (move-and-wait cycles)"),
     ("requeries", int, "status questions after a report was overdue (onboard: every 10 s)"),
+    ("unstarted", int, "commands that ended without running (expired), each sent again"),
     ("think_total_s", float, "[s] thought in total"),
     ("max_force_n", float, "[N] peak |f| on the port"),
     ("mean_force_n", float, "[N] mean |f| over the task time"),

@@ -20,7 +20,7 @@ from typing import Any
 
 from experiments.sweep.operators import Operator, operator_for
 from experiments.sweep.recorder import TrialRecorder
-from experiments.sweep.robot import Done, Reply, Request, VirtualRobot
+from experiments.sweep.robot import VIRTUAL_EPOCH_S, Done, Reply, Request, VirtualRobot
 from experiments.sweep.spec import TrialSpec
 from latency.clock import SimulatedLink
 from latency.delay_line import Dropped
@@ -75,7 +75,7 @@ def simulate(spec: TrialSpec, profile: LinkProfile | None = None, record: Path |
     profile = profile or spec.link_profile()
     link = SimulatedLink(profile)
     recorder = TrialRecorder(record, spec, robot, link) if record is not None else None
-    operator = operator_for(spec)
+    operator = operator_for(spec, VIRTUAL_EPOCH_S)
     inbox: list[Request] = []
     lost = [0]
 
@@ -140,6 +140,7 @@ def row(trial: Trial) -> dict[str, Any]:
         "commands_sent": operator.commands_sent,
         "wait_cycles": operator.wait_cycles,
         "requeries": operator.requeries,
+        "unstarted": operator.unstarted,
         "think_total_s": operator.think_s,
         "max_force_n": metrics["max_force_n"],
         "mean_force_n": figures.mean_force_n(),
