@@ -29,7 +29,7 @@ from robot_sim.payload import Payload
 from robot_sim.presets import default_presets
 from robot_sim.scenes import Scene, TaskProgress, apply_seed, get_scene
 from robot_sim.scenes.grasp import actuate
-from robot_sim.task_frames import TaskFrames, scene_frames
+from robot_sim.task_frames import TaskFrame, TaskFrames, scene_frames, unit_quaternion
 from robot_sim.task_monitor import FrictionMonitor
 
 SETTLE_S = 0.3  # [s] physics in position hold at every (re)load, before compliance starts
@@ -317,6 +317,18 @@ class Simulation:
         report = self._finish(ExitCondition.FAULT, message) if self.behavior is not None else None
         self.reset(self.scene.name, self.seed)
         return report
+
+    def add_operator_frame(self, name: str, pose: Pose | None = None) -> TaskFrame:
+        """An operator's task frame at `pose`, or at the port's pose now (None); it lasts until
+        deleted or the scene (re)loads (a reset, a fault)."""
+        if pose is None:
+            pose = self.state().port
+            defined_by = f"tool pose at sim time {self.time:.3f} s"
+        else:
+            defined_by = "typed pose"
+        frame = TaskFrame(name, pose.position, unit_quaternion(pose.quaternion), "operator", defined_by)
+        self.frames.add(frame)
+        return frame
 
     # -------------------------------------------------------------------------- state
     def state(self) -> RobotState:

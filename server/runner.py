@@ -24,7 +24,7 @@ from robot_sim.geometry import moving_bodies, scene_geometry
 from robot_sim.policies.run import StepRecord
 from robot_sim.scenes import get_scene
 from robot_sim.sim import Simulation
-from robot_sim.task_frames import TaskFrame, unit_quaternion
+from robot_sim.task_frames import TaskFrame
 from robot_sim.telemetry import frames_change_message, frames_message, state_fields
 from server.commands import CommandBook, status_model
 from server.pacing import RealTimePacer
@@ -113,13 +113,7 @@ class SimRunner:
 
     def add_frame(self, name: str, pose: Pose | None) -> TaskFrame:
         """(simulation thread) An operator's frame at `pose`, or at the port's pose now (None)."""
-        if pose is None:
-            pose = self.sim.state().port
-            defined_by = f"tool pose at sim time {self.sim.time:.3f} s"
-        else:
-            defined_by = "typed pose"
-        frame = TaskFrame(name, pose.position, unit_quaternion(pose.quaternion), "operator", defined_by)
-        self.sim.frames.add(frame)
+        frame = self.sim.add_operator_frame(name, pose)
         self._publish_frames(added=[frame])
         return frame
 

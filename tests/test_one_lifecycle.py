@@ -4,6 +4,7 @@ statuses, exits, details (their numbers aside: times differ) and order. Both run
 robot_sim/command_book.py; a second copy of any part of it (expiry, STOP, the cap) would show
 here as a difference."""
 
+import math
 import re
 import time
 from collections.abc import Callable
@@ -17,6 +18,7 @@ from robot_sim.command_book import CommandRecord, QueueFullError
 from robot_sim.command_request import COMMAND
 from robot_sim.executor import CommandParams
 from robot_sim.limits import COMMAND_QUEUE_MAX
+from robot_sim.task_frames import FrameInUseError
 from server.commands import status_model
 
 SCENE = "free_space"
@@ -48,9 +50,11 @@ class Script:
         wait_until: Callable[[Callable[[], bool]], None],
         statuses: Callable[[], list[tuple[int, str]]],  # (id, status) of every command so far
         stop: Callable[[], None],
+        frame: Callable[[str, str], bool],  # ("add" at the tool | "remove", name): done, not refused
+        fault: Callable[[], None],  # the physics faults: the scene reloads, its frames with it
     ) -> None:
         self.post, self.now, self.wait_until = post, now_unix_s, wait_until
-        self.statuses, self.stop = statuses, stop
+        self.statuses, self.stop, self.frame, self.fault = statuses, stop, frame, fault
 
     def run(self) -> int:
         """The script; how many posts the full queue refused."""
@@ -68,11 +72,22 @@ class Script:
             refused += not self.post(MOVE)
         self.stop()
         self.wait_until(lambda: all(s == "done" for _, s in self.statuses()))
+        # A frame that vanishes under a queued command: deleting it is refused while a command
+        # names it, but a fault reloads the scene (and its frames); the command ends at its start.
+        assert self.frame("add", "jig")
+        assert self.post(LONG) and self.post({**MOVE, "frame": "jig"})
+        assert not self.frame("remove", "jig")
+        self.wait_until(lambda: "running" in [s for _, s in self.statuses()])
+        self.fault()
+        self.wait_until(lambda: all(s == "done" for _, s in self.statuses()))
         return refused
 
 
 def through_the_server() -> tuple[list[Row], int]:
-    with running_server("--scene", SCENE) as robot, httpx.Client(base_url=robot.url, timeout=10.0) as http:
+    with (
+        running_server("--scene", SCENE, "--fault-injection") as robot,
+        httpx.Client(base_url=robot.url, timeout=10.0) as http,
+    ):
 
         def post(body: dict[str, Any]) -> bool:
             answer = http.post("/api/commands", json=body)
@@ -93,7 +108,17 @@ def through_the_server() -> tuple[list[Row], int]:
         def stop() -> None:
             http.post("/api/stop").raise_for_status()
 
-        refused = Script(post, time.time, wait_until, statuses, stop).run()
+        def frame(action: str, name: str) -> bool:
+            if action == "add":
+                answer = http.post("/api/frames", json={"name": name, "pose": "tool"})
+            else:
+                answer = http.delete(f"/api/frames/{name}")
+            return answer.is_success
+
+        def fault() -> None:
+            http.post("/api/_debug/fault").raise_for_status()
+
+        refused = Script(post, time.time, wait_until, statuses, stop, frame, fault).run()
         return rows(http.get("/api/commands", params={"limit": 1000}).json()), refused
 
 
@@ -117,7 +142,17 @@ def through_the_virtual_robot() -> tuple[list[Row], int]:
     def statuses() -> list[tuple[int, str]]:
         return [(r.id, r.status) for r in robot.submitted.values()]
 
-    refused = Script(post, robot.unix_time_s, wait_until, statuses, robot.stop).run()
+    def frame(action: str, name: str) -> bool:
+        try:
+            robot.add_frame(name) if action == "add" else robot.remove_frame(name)
+        except FrameInUseError:
+            return False
+        return True
+
+    def fault() -> None:
+        robot.sim.data.qvel[0] = math.nan  # as the server's fault hook (server/runner.py)
+
+    refused = Script(post, robot.unix_time_s, wait_until, statuses, robot.stop, frame, fault).run()
     return rows([as_api(r) for r in robot.submitted.values()]), refused
 
 
@@ -129,9 +164,11 @@ def test_the_server_and_the_sweeps_virtual_robot_keep_the_same_records() -> None
     virtual, virtual_refused = through_the_virtual_robot()
     real, real_refused = through_the_server()
     assert virtual_refused == real_refused == 1
-    assert len(real) == 2 + 2 + 1 + COMMAND_QUEUE_MAX
+    assert len(real) == 2 + 2 + 1 + COMMAND_QUEUE_MAX + 2
     assert virtual == real
     assert [row[2] for row in real[:6]] == ["goal_reached", "expired", *["aborted"] * 4]
     assert real[1][3] == "# s old at its start, over its max_age # s"
     assert real[2][3] == real[4][3] == "stopped"
-    assert real[3][3] == real[-1][3] == "dropped by stop"
+    assert real[3][3] == real[-3][3] == "dropped by stop"
+    assert [row[2] for row in real[-2:]] == ["fault", "aborted"]
+    assert real[-1][3] == "its task frame is gone (frame 'jig'): deleted, or the scene was reset"

@@ -126,6 +126,14 @@ class VirtualRobot:
         """POST /api/stop (the sweeps' operators never send it; scripts and tests do)."""
         return self.commands.stop_all()
 
+    def add_frame(self, name: str) -> None:
+        """POST /api/frames at the tool (scripts and tests do; the sweeps' operators do not)."""
+        self.sim.add_operator_frame(name)
+
+    def remove_frame(self, name: str) -> None:
+        """DELETE /api/frames/{name}: refused while a queued or running command names it."""
+        self.sim.frames.remove(name, self.book.naming_frame(name))
+
     def handle(self, request: Request) -> Reply:
         """A request that arrived; its answer (the server answers between 2 ms batches)."""
         if isinstance(request, Post):
