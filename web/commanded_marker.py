@@ -6,9 +6,9 @@ distance run from the port as last reported, so they follow the port as it moves
 import numpy as np
 import viser
 
+from robot_sim.behaviors.base import PoseArrays
 from web.label_places import COMMANDED
 from web.markers import TargetMarker
-from web.targets import Pose
 
 RED = (224, 49, 49)
 
@@ -29,13 +29,13 @@ class CommandedMarker:
             wireframe=True,
             distance_anchor="bottom-left",
         )
-        self._shown: tuple[Pose | None, bool] = (None, False)  # (target, resolved)
+        self._shown: tuple[PoseArrays | None, bool] = (None, False)  # (target, resolved)
         self._port: np.ndarray | None = None
 
     def marker(self, resolved: bool) -> TargetMarker:
         return self.solid if resolved else self.outline
 
-    def show(self, target: Pose | None, resolved: bool) -> None:
+    def show(self, target: PoseArrays | None, resolved: bool) -> None:
         """Solid where the robot resolved it, an outline where it is predicted; hidden for None."""
         self._shown = (target, resolved)
         self.marker(not resolved).show(None, None)

@@ -10,6 +10,7 @@ import numpy as np
 import viser
 
 from robot_sim.behaviors import BehaviorParams
+from robot_sim.behaviors.base import PoseArrays
 from robot_sim.errors import UnknownNameError
 from robot_sim.params import PtwlParams
 from robot_sim.task_frames import TaskFrames
@@ -25,7 +26,7 @@ from web.preview import Previewer, PreviewResult
 from web.robot_link import RobotLink
 from web.seat import ControlSeat, operator_name
 from web.stop_sender import StopSender
-from web.targets import Pose, ptwl_target
+from web.targets import ptwl_target
 from web.twin import GroundTwin, Sent
 from web.twin_sim import point_from_state
 
@@ -56,7 +57,7 @@ class Commanding:
         )
 
     # ------------------------------------------------------------- reads
-    def port(self) -> Pose | None:
+    def port(self) -> PoseArrays | None:
         return self._link.port()
 
     @property
@@ -117,7 +118,7 @@ class Commanding:
                 self._notifier.notify(f"#{accepted.id}: check the approach", warning, "orange")
         self._log.changed(view)
 
-    def target_of(self, params: dict[str, Any]) -> Pose | None:
+    def target_of(self, params: dict[str, Any]) -> PoseArrays | None:
         """Where a PTWL as sent goes from the port shown (None without a port, or in a frame not
         known yet): the commanded marker's place, from what is sent, not from the fields."""
         port = self._link.port()

@@ -10,6 +10,7 @@ from typing import Any, Protocol
 import numpy as np
 import viser
 
+from robot_sim.behaviors.base import PoseArrays
 from robot_sim.errors import UnknownNameError
 from robot_sim.task_frames import TaskFrames
 from web.checks import Check
@@ -22,7 +23,7 @@ from web.markup import Markup, add_html
 from web.panel import Panel
 from web.preview import PreviewResult
 from web.seat import ControlSeat, operator_name
-from web.targets import Pose, displacement_to, ptwl_target
+from web.targets import displacement_to, ptwl_target
 from web.typed_number import FieldError
 
 YELLOW = (250, 204, 21)
@@ -32,7 +33,7 @@ class DeskServices(Protocol):
     """What a desk asks of the console (web/commanding.py): the robot's port and task frames as
     last heard, its rules, and the ways to act on it."""
 
-    def port(self) -> Pose | None: ...
+    def port(self) -> PoseArrays | None: ...
 
     @property
     def task_frames(self) -> TaskFrames: ...
@@ -250,7 +251,7 @@ class Desk:
             self.gizmo.position, self.gizmo.wxyz = target
             self._syncing_gizmo = False
 
-    def _target(self, port: Pose | None) -> tuple[Pose | None, str]:
+    def _target(self, port: PoseArrays | None) -> tuple[PoseArrays | None, str]:
         """Where the PTWL as typed goes; None, and why, without a port, in a frame not known
         (yet), or while the translation or rotation is not numbers the robot's rules take."""
         if port is None:

@@ -12,6 +12,7 @@ import numpy as np
 import trimesh
 import viser
 
+from robot_sim.behaviors.base import PoseArrays
 from web.label_places import MIN_DISTANCE_LABEL_MM, Anchor, LabelPlace
 
 MOVE_EPSILON = 1e-5  # [m] and quaternion units: below this a pose is not re-sent
@@ -67,7 +68,7 @@ class TargetMarker:
         self.distance_mm: float | None = None
         self._shown: np.ndarray | None = None  # (target, port) as last sent; None: hidden
 
-    def show(self, target: tuple[np.ndarray, np.ndarray] | None, port: np.ndarray | None) -> None:
+    def show(self, target: PoseArrays | None, port: np.ndarray | None) -> None:
         """At `target` (position, wxyz), with the line from `port`; hidden for None. Called on
         every telemetry state: what has not moved is not re-sent (each assignment is a message)."""
         key = None

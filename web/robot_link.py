@@ -9,12 +9,12 @@ from typing import Any
 
 import numpy as np
 
+from robot_sim.behaviors.base import PoseArrays
 from server.client import RobotClient
 from server.models import GeometryModel
 from web.feed import TelemetryFeed
 from web.handshake import Catalog, Handshake
 from web.link_poller import LinkPoller
-from web.targets import Pose
 from web.telemetry_health import TelemetryHealth
 
 HTTP_TIMEOUT_S = 120.0  # requests cross the link twice; long delays are the point
@@ -71,7 +71,7 @@ class RobotLink:
         with self._lock:
             return self._state, self._arrived
 
-    def port(self) -> Pose | None:
+    def port(self) -> PoseArrays | None:
         state, _ = self.latest()
         if state is None:
             return None

@@ -15,12 +15,12 @@ import threading
 import numpy as np
 import viser
 
+from robot_sim.behaviors.base import PoseArrays
 from server.models import GeometryModel
 from web.arm_bodies import ArmBodies
 from web.commanded_marker import CommandedMarker
 from web.label_places import ATTRACTOR, PORT
 from web.sent_values import SentValues
-from web.targets import Pose
 
 FORCE_COLOR = (200, 40, 210)  # magenta: the arm is orange, so an orange arrow on it hid
 
@@ -121,7 +121,7 @@ class RobotView:
     def _place(self, key: str, handle: viser.FrameHandle, position: list, wxyz: list) -> None:
         self._sent.place(key, handle, np.array([*position, *wxyz], dtype=float))
 
-    def show_commanded(self, target: Pose | None, resolved: bool = False) -> None:
+    def show_commanded(self, target: PoseArrays | None, resolved: bool = False) -> None:
         """The commanded target: solid where the robot resolved it, an outline where it is only
         predicted from the delayed port; hidden for None."""
         with self._lock:

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from robot_sim.behaviors import BehaviorParams, behavior_for
-from robot_sim.behaviors.base import Pose
+from robot_sim.behaviors.base import Pose, PoseArrays
 from robot_sim.errors import UnknownNameError
 from robot_sim.gains import Gains
 from robot_sim.geometry import body_poses, moving_bodies
@@ -50,7 +50,7 @@ class TwinPoint:
 @dataclass(frozen=True)
 class Prediction:
     sim_time: float
-    port: tuple[np.ndarray, np.ndarray]  # position [m], wxyz
+    port: PoseArrays
     bodies: dict[str, list[float]]
 
 

@@ -29,6 +29,11 @@ class ExitCondition(StrEnum):
     EXPIRED = "expired"  # never started: its max_age or valid_until_sim_time had passed (params.py)
 
 
+# A base-frame pose as (position [m], unit quaternion wxyz) arrays: the form numpy math and
+# viser take (the console's markers and targets). `Pose` is the same pose as plain numbers.
+PoseArrays = tuple[np.ndarray, np.ndarray]
+
+
 @dataclass(frozen=True)
 class Pose:
     """Base-frame pose: position [m] and unit quaternion [w x y z]."""
@@ -38,6 +43,9 @@ class Pose:
 
     def as_dict(self) -> dict[str, list[float]]:
         return {"position": list(self.position), "quaternion": list(self.quaternion)}
+
+    def arrays(self) -> PoseArrays:
+        return np.array(self.position, dtype=float), np.array(self.quaternion, dtype=float)
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,7 @@ origin.
 import mujoco
 import numpy as np
 
-from robot_sim.behaviors.base import Behavior, ExitCondition, Pose, end_breach, wrench_breached
+from robot_sim.behaviors.base import Behavior, ExitCondition, Pose, PoseArrays, end_breach, wrench_breached
 from robot_sim.controller import AdmittanceController
 from robot_sim.params import MonitorSpec, PtwlParams
 from robot_sim.pose_math import angle_between, rotate_world, rotvec_from_to
@@ -25,7 +25,7 @@ from robot_sim.task_frames import TaskFrames
 
 def ptwl_goal(
     p_world_port: np.ndarray, q_world_port: np.ndarray, params: PtwlParams, frames: TaskFrames
-) -> tuple[np.ndarray, np.ndarray]:
+) -> PoseArrays:
     """(position [m], quaternion wxyz) of the goal: port (+) displacement, base frame."""
     return displaced(p_world_port, q_world_port, params.translation, params.rotation, params.frame, frames)
 
@@ -37,7 +37,7 @@ def displaced(
     rotation_rad: "np.ndarray | list[float]",
     frame: str,
     frames: TaskFrames,
-) -> tuple[np.ndarray, np.ndarray]:
+) -> PoseArrays:
     """Port (+) displacement: the translation and rotation vector in `frame`'s axes (the port's
     at start for `tool`), the rotation about the port's origin; (position [m], wxyz), base frame.
     The one rule, for the robot and for a console drawing where a PTWL will go."""
