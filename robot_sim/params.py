@@ -5,6 +5,8 @@ frame. Every range check names the field, the allowed range and the value it got
 """
 
 import math
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from typing import Annotated, Any, Literal, Self
 
 from pydantic import (
@@ -130,6 +132,27 @@ FRAME_NAME_PATTERN = r"^[A-Za-z][A-Za-z0-9_]{0,31}$"
 FrameName = Annotated[str, Field(pattern=FRAME_NAME_PATTERN, min_length=1, max_length=32)]
 FRAME_FIELDS = ("frame", "gains_frame")  # the fields of a command that name a frame
 TASK_FRAME_DOC = ", or a task frame's name (GET /api/frames)"
+
+
+@dataclass
+class NamedElsewhere:
+    """The names a request may use that this module does not own: stiffness and dither presets
+    (robot_sim/presets.py) and tasks (robot_sim/policies/), each registered here by its owner
+    when robot_sim is imported (robot_sim/__init__.py). Those build on these params, so this
+    module imports neither: the arrows point one way."""
+
+    stiffness_preset: "Callable[[str], GainsSpec] | None" = None  # UnknownNameError if unknown
+    dither_preset: Callable[[str], dict[str, Any]] | None = None
+    task_settings: Callable[[str], type[BaseModel]] | None = None  # a task's settings model
+    tasks: Callable[[], Iterable[str]] | None = None
+
+    def need(self, lookup: Callable[..., Any] | None, what: str) -> Callable[..., Any]:
+        if lookup is None:  # robot_sim/__init__.py registers all: only a broken install gets here
+            raise RuntimeError(f"no {what} registered with robot_sim.params")
+        return lookup
+
+
+NAMED = NamedElsewhere()
 
 
 class GainsSpec(StrictModel):
@@ -353,10 +376,8 @@ class DitherParams(Expiring):
     def _apply_preset(cls, data: object) -> object:
         """A named preset supplies every field the request does not give."""
         if isinstance(data, dict) and data.get("preset") is not None:
-            from robot_sim.presets import default_presets
-
             try:
-                base = default_presets().dither_preset(str(data["preset"]))
+                base = NAMED.need(NAMED.dither_preset, "dither presets")(str(data["preset"]))
             except UnknownNameError as err:
                 raise ValueError(str(err)) from None
             return {**base, **data}
@@ -386,10 +407,8 @@ def _check_gains_choice(
     if stiffness is not None and damping is not None:
         limits.check_gains(stiffness, damping)
     if preset is not None:
-        from robot_sim.presets import default_presets
-
         try:
-            default_presets().stiffness_preset(preset)
+            NAMED.need(NAMED.stiffness_preset, "stiffness presets")(preset)
         except UnknownNameError as err:
             raise ValueError(str(err)) from None
 
@@ -398,9 +417,8 @@ def _resolve_gains(
     preset: str | None, stiffness: list[float] | None, damping: list[float] | None
 ) -> Gains | None:
     if preset is not None:
-        from robot_sim.presets import default_presets
-
-        return default_presets().stiffness_preset(preset).to_gains()
+        spec: GainsSpec = NAMED.need(NAMED.stiffness_preset, "stiffness presets")(preset)
+        return spec.to_gains()
     if stiffness is not None and damping is not None:
         return Gains.of(stiffness, damping)
     return None
@@ -434,18 +452,16 @@ class StateMachineParams(Expiring):
     @field_validator("task")
     @classmethod
     def _known(cls, task: str) -> str:
-        from robot_sim.policies import POLICIES  # they build on these params: imported late
-
-        if task not in POLICIES:
-            raise ValueError(f"task must be one of {', '.join(sorted(POLICIES))}, got {task!r}")
+        tasks = sorted(NAMED.need(NAMED.tasks, "tasks")())
+        if task not in tasks:
+            raise ValueError(f"task must be one of {', '.join(tasks)}, got {task!r}")
         return task
 
     @model_validator(mode="after")
     def _overrides_fit_the_task(self) -> Self:
-        from robot_sim.policies import POLICIES
-
+        settings_model = NAMED.need(NAMED.task_settings, "tasks")(self.task)
         try:
-            POLICIES[self.task].settings_model.model_validate(self.overrides)
+            settings_model.model_validate(self.overrides)
         except ValidationError as err:
             said = "; ".join(f"{'.'.join(map(str, e['loc']))}: {e['msg']}" for e in err.errors())
             raise ValueError(f"overrides for {self.task}: {said}") from None

@@ -14,7 +14,7 @@ from ptwl_config import config_dir, read_toml, validation_problem
 from pydantic import ValidationError
 
 from robot_sim.errors import ConfigError, UnknownNameError
-from robot_sim.params import DitherParams, GainsSpec
+from robot_sim.params import NAMED, DitherParams, GainsSpec
 
 
 @dataclass(frozen=True)
@@ -73,3 +73,8 @@ def load_presets(path: Path) -> Presets:
 @cache
 def default_presets() -> Presets:
     return load_presets(config_dir() / "presets.toml")
+
+
+# The presets a request names are these (robot_sim/params.py resolves names through NAMED).
+NAMED.stiffness_preset = lambda name: default_presets().stiffness_preset(name)
+NAMED.dither_preset = lambda name: default_presets().dither_preset(name)

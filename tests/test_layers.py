@@ -3,9 +3,12 @@ at import time or lazily, so there is no cycle; and the console checks a command
 models without importing FastAPI or the server."""
 
 import ast
+import graphlib
 import subprocess
 import sys
 from pathlib import Path
+
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 # Bottom to top. ptwl_config is the `config/` directory's package.
@@ -50,6 +53,64 @@ def test_every_import_points_down() -> None:
         if LAYERS.index(imported) > LAYERS.index(package)
     }
     assert upward == {}
+
+
+def module_graph(package: str) -> dict[str, set[str]]:
+    """{module: the modules of the same package it imports at run time (lazily or not; an
+    `if TYPE_CHECKING:` import is for the type checker only)}."""
+    directory = ROOT / DIRS.get(package, package)
+    modules: dict[str, Path] = {}
+    for path in directory.rglob("*.py"):
+        parts = [package, *path.relative_to(directory).with_suffix("").parts]
+        modules[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    graph: dict[str, set[str]] = {}
+    for module, path in modules.items():
+        tree = ast.parse(path.read_text())
+        type_only = {
+            id(inner)
+            for node in ast.walk(tree)
+            if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test)
+            for inner in ast.walk(node)
+        }
+        imported: set[str] = set()
+        for node in ast.walk(tree):
+            if id(node) in type_only:
+                continue
+            if isinstance(node, ast.Import):
+                imported |= {alias.name for alias in node.names}
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                # `from a import b`: the module a.b if there is one, else a itself.
+                subs = {f"{node.module}.{alias.name}" for alias in node.names}
+                imported |= (subs & modules.keys()) or {node.module}
+                if not subs <= modules.keys():
+                    imported.add(node.module)
+        graph[module] = (imported & modules.keys()) - {module}
+    return graph
+
+
+@pytest.mark.parametrize("package", LAYERS)
+def test_no_module_imports_one_that_imports_it_back(package: str) -> None:
+    """Inside each package too: robot_sim's params resolves preset and task names through a
+    registry its owners fill (params.NAMED), rather than importing them lazily."""
+    try:
+        tuple(graphlib.TopologicalSorter(module_graph(package)).static_order())
+    except graphlib.CycleError as err:
+        pytest.fail(f"{package}: an import cycle: {' -> '.join(err.args[1])}")
+
+
+def test_module_graph_sees_a_lazy_import_cycle(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The check above can fail: a lazy import back is a cycle, a TYPE_CHECKING one is not."""
+    package = tmp_path / "pkg"
+    package.mkdir()
+    (package / "__init__.py").write_text("")
+    (package / "a.py").write_text("from pkg import b\n")
+    (package / "b.py").write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    import pkg.a\n")
+    monkeypatch.setattr(sys.modules[__name__], "ROOT", tmp_path)
+    assert module_graph("pkg") == {"pkg": set(), "pkg.a": {"pkg.b"}, "pkg.b": set()}
+    (package / "b.py").write_text("def f():\n    from pkg.a import x\n")
+    assert module_graph("pkg")["pkg.b"] == {"pkg.a"}
+    with pytest.raises(graphlib.CycleError):
+        tuple(graphlib.TopologicalSorter(module_graph("pkg")).static_order())
 
 
 def test_the_console_checks_commands_without_fastapi_or_the_server() -> None:

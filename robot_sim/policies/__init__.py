@@ -8,8 +8,10 @@ the result by the scene's own predicate, which the policy never sees.
 from dataclasses import dataclass
 from typing import Any
 
+import robot_sim.presets  # noqa: F401  (registered first: the steps below name its presets)
 from robot_sim.behaviors import behavior_for
 from robot_sim.errors import UnknownNameError
+from robot_sim.params import NAMED
 from robot_sim.policies.base import Decision, Finish, Policy, Step
 from robot_sim.policies.berthing import Berthing
 from robot_sim.policies.door import Door
@@ -37,6 +39,10 @@ POLICIES: dict[str, type[Policy]] = {
         ToolStowage,
     )
 }
+
+# The tasks a request names are these (robot_sim/params.py resolves names through NAMED).
+NAMED.tasks = POLICIES.keys
+NAMED.task_settings = lambda task: POLICIES[task].settings_model
 
 
 def policy_for(task: str, overrides: dict[str, object] | None = None) -> Policy:
