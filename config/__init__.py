@@ -11,7 +11,13 @@ from pydantic import ValidationError
 CONFIG_DIR_ENV = "PTWL_CONFIG_DIR"
 
 
-class ConfigError(ValueError):
+class PtwlError(Exception):
+    """The root of every error ptwl-console raises on purpose. Each package's errors subclass it
+    (and a built-in kind where a caller relies on one, e.g. ValueError); the subclass's name says
+    what went wrong. Defined here, in the lowest layer, so that every package can reach it."""
+
+
+class ConfigError(PtwlError, ValueError):
     """A configuration that cannot work: a config file that does not validate, or a setting
     (a command-line option, an environment variable) that cannot be made safe. The message names
     the file and key or the option, and says what to do. The project's one ConfigError."""

@@ -7,6 +7,7 @@ means whatever the parser likes) and answers 20k-deep nesting with a RecursionEr
 import json
 from typing import Any
 
+from ptwl_config import PtwlError
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from guard.respond import send_json
@@ -14,7 +15,7 @@ from guard.respond import send_json
 MAX_DEPTH = 32  # our deepest body (a profile's blackout list) is 3 levels
 
 
-class JsonBodyError(ValueError):
+class JsonBodyError(PtwlError, ValueError):
     """Why a body is not acceptable JSON, as the 422 says it."""
 
 

@@ -4,13 +4,13 @@ import tomllib
 from functools import cache
 from pathlib import Path
 
-from ptwl_config import config_dir
+from ptwl_config import PtwlError, config_dir
 from pydantic import ValidationError
 
 from latency.profile import LinkProfile
 
 
-class LinkConfigError(ValueError):
+class LinkConfigError(PtwlError, ValueError):
     """A links file that does not validate, or an unknown profile name."""
 
 

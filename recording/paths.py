@@ -2,8 +2,10 @@
 
 from pathlib import Path
 
+from ptwl_config import PtwlError
 
-class RecordPathError(ValueError):
+
+class RecordPathError(PtwlError, ValueError):
     pass
 
 

@@ -28,6 +28,7 @@ from mcap.opcode import Opcode
 from mcap.records import Channel, Chunk, DataEnd, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap_protobuf.decoder import DecoderFactory as ProtobufDecoders
+from ptwl_config import PtwlError
 
 # Our writer closes a chunk at 1 MiB (the Foxglove SDK's chunk_size) or 1 s of log time, so a
 # chunk holds ~1 MiB plus at most one message; one scene's geometry is ~0.1 MiB.
@@ -42,7 +43,7 @@ MAX_JSON_DEPTH = 64  # nesting of one JSON message; ours nest 5 deep (geometry)
 MAX_JSON_BYTES = 4 * 2**20
 
 
-class RecordingError(ValueError):
+class RecordingError(PtwlError, ValueError):
     """A file that no writer of ours made: named, with the place, as one line."""
 
 

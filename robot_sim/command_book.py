@@ -22,6 +22,7 @@ from typing import Any
 
 from robot_sim.behaviors import BehaviorReport
 from robot_sim.behaviors.base import ExitCondition, Pose
+from robot_sim.errors import RobotSimError
 from robot_sim.executor import CommandParams
 from robot_sim.limits import SENT_AT_SKEW_S
 from robot_sim.policies.run import StepRecord
@@ -30,14 +31,14 @@ from robot_sim.task_frames import frames_named
 STOP_DETAIL = "dropped by stop"
 
 
-class QueueFullError(Exception):
+class QueueFullError(RobotSimError):
     def __init__(self, limit: int) -> None:
         super().__init__(
             f"command queue is full ({limit} queued); wait for commands to finish or POST /api/stop"
         )
 
 
-class FutureSentAtError(ValueError):
+class FutureSentAtError(RobotSimError, ValueError):
     """A command stamped `sent_at` further ahead of the robot's clock than the allowed skew."""
 
     field = "sent_at"

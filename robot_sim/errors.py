@@ -4,12 +4,12 @@ Routes (server/) turn these into HTTP errors; robot_sim itself never knows about
 configuration file is the project's one ConfigError (ptwl_config), raised here too.
 """
 
-from ptwl_config import ConfigError
+from ptwl_config import ConfigError, PtwlError
 
 __all__ = ["ConfigError", "RobotSimError", "SimulationFault", "UnknownNameError"]
 
 
-class RobotSimError(Exception):
+class RobotSimError(PtwlError):
     """Root of every error robot_sim raises on purpose."""
 
 

@@ -16,6 +16,7 @@ from types import TracebackType
 from typing import Any, Self
 
 import httpx
+from ptwl_config import PtwlError
 from websockets.exceptions import ConnectionClosedOK
 from websockets.sync.client import connect
 
@@ -38,7 +39,7 @@ from server.models import (
 LONG_POLL_CHUNK_S = 30.0
 
 
-class RobotError(Exception):
+class RobotError(PtwlError):
     """The server answered 4xx/5xx."""
 
     def __init__(self, status_code: int, detail: Any) -> None:

@@ -19,6 +19,8 @@ import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
+from ptwl_config import PtwlError
+
 from robot_sim.behaviors import BehaviorReport
 from robot_sim.command_book import CommandBook as Book
 from robot_sim.command_book import CommandRecord, Listener
@@ -31,7 +33,7 @@ from server.models import CommandStatus, MachineStepModel, PoseModel
 ID_BLOCK = 4096  # ids put on record per write of the state file
 
 
-class IdRecordError(ValueError):
+class IdRecordError(PtwlError, ValueError):
     """The id record could not be read or moved up (a full disk, a dir made read-only, a file
     damaged under a running robot): no id can be given out that is sure never to repeat."""
 

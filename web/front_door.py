@@ -21,6 +21,8 @@ import threading
 from typing import Any
 from urllib.parse import urlsplit
 
+from ptwl_config import PtwlError
+
 from guard.access import AccessPolicy
 from guard.asgi import denial
 from guard.listen import host_port
@@ -79,7 +81,7 @@ def admit_only_through(front_door: "FrontDoor", viser_server: Any) -> None:
     logging.getLogger("websockets.server").addFilter(_quiet_refusals)
 
 
-class NotThroughFrontDoor(PermissionError):
+class NotThroughFrontDoor(PtwlError, PermissionError):
     """A WebSocket on viser's own port without the front door's mark (refused, closed 1008)."""
 
 

@@ -24,6 +24,8 @@ from web.replay_timeline import Timeline, slider_end
 from web.worker import Worker
 
 POLL_S = 0.25
+READ_JOIN_S = 5.0  # [s] past it (an hour of recording takes ~18 s to index) the daemon reader is
+# left to finish on its own: it drops what it read once it sees the console closed
 PLAYBACK_ORDER = 1.5  # just under the pinned status bar
 
 
@@ -66,6 +68,11 @@ class Playback(Worker):
     def start(self) -> None:
         super().start()
         self._reader.start()
+
+    def close(self) -> None:
+        super().close()
+        if self._reader.is_alive():  # indexing a long file: it checks `_closed` once done
+            self._reader.join(timeout=READ_JOIN_S)
 
     def _read_record(self) -> None:
         """(its own thread) Index the recording; then mark its commands on the timeline and, if

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import viser
+from ptwl_config import PtwlError
 
 from web.markup import Markup, add_html, show
 
@@ -35,7 +36,7 @@ NOT_A_NUMBER = "not a number (write e.g. 12.5 or 2.5e1)"
 AXES = ("x", "y", "z")
 
 
-class FieldError(ValueError):
+class FieldError(PtwlError, ValueError):
     """A field's text is not a number the console will use; `reason` says why, for the operator."""
 
     def __init__(self, reason: str) -> None:

@@ -13,6 +13,8 @@ from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Any
 
+from ptwl_config import PtwlError
+
 from experiments.sweep.spec import TrialSpec
 from experiments.sweep.trial import run_trial
 
@@ -107,7 +109,7 @@ def run_ray(
             ray.shutdown()
 
 
-class BackendMissing(RuntimeError):
+class BackendMissing(PtwlError, RuntimeError):
     """A sweep backend whose library is not installed; the message says how to install it."""
 
 

@@ -16,6 +16,7 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import httpx
+from ptwl_config import PtwlError
 
 from experiments.sweep.operators import Operator, operator_for
 from experiments.sweep.robot import Accepted, Done, Outcome, Post, Request, Status
@@ -135,7 +136,7 @@ def run_real(spec: TrialSpec, robot_url: str, link_url: str) -> dict[str, Any]:
     }
 
 
-class NotOneGridPoint(ValueError):
+class NotOneGridPoint(PtwlError, ValueError):
     """The real-time cross-check runs one grid point on a plain link."""
 
 

@@ -20,6 +20,7 @@ from typing import Any, TextIO
 
 import mujoco
 import numpy as np
+from ptwl_config import PtwlError
 from tqdm import tqdm
 
 from experiments.sweep import backends
@@ -79,7 +80,7 @@ def versions(backend: str) -> dict[str, str]:
     return found
 
 
-class OutDirectoryError(ValueError):
+class OutDirectoryError(PtwlError, ValueError):
     """`--out` names a directory this sweep must not write into (`ptwl`: exit 2, one line)."""
 
 

@@ -1,0 +1,88 @@
+"""Every thread owned (issue 28.5): once the link proxy, the replay's stand-in and a console
+watching a replay stop, `threading.enumerate()` holds no thread they started. (The robot server
+in process: tests/test_routes_on_sim_thread.py; the console on a live robot:
+tests/test_console_logic.py::test_close_stops_every_thread.)"""
+
+import threading
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import pytest
+from fastapi.testclient import TestClient
+
+from experiments.sweep.spec import TrialSpec
+from experiments.sweep.trial import simulate
+from guard.access import AccessPolicy
+from latency.link import Link
+from latency.profile import LinkProfile
+from latency.proxy import LinkProxy
+from ptwl.launcher import free_port, running, running_server
+from recording.replay.player import Player
+from recording.replay.timeline import Timeline
+from server.replay.app import create_replay_app
+from web.app import ConsoleApp
+
+
+@contextmanager
+def no_thread_left() -> Iterator[None]:
+    before = {thread.ident for thread in threading.enumerate()}
+    yield
+    deadline = time.monotonic() + 5.0  # a joined thread is gone; this is slack for the check only
+    while True:
+        left = [t.name for t in threading.enumerate() if t.ident not in before and t.is_alive()]
+        if not left or time.monotonic() > deadline:
+            break
+        time.sleep(0.05)
+    assert left == []
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("threads") / "trial.mcap"
+    simulate(TrialSpec("quick_connect", "onboard", 0.0, 0.0, 0.0, 0, think_s=0.0), record=path)
+    return path
+
+
+def test_the_link_proxy_in_process_leaves_no_thread_behind() -> None:
+    with running_server("--scene", "free_space") as robot, no_thread_left():
+        proxy = LinkProxy(robot.url, Link(LinkProfile(uplink=0.05)), AccessPolicy("127.0.0.1", 8001))
+        with TestClient(proxy.app(), base_url="http://127.0.0.1:8001") as client:
+            started = time.monotonic()
+            assert client.get("/api/state").status_code == 200
+            assert time.monotonic() - started >= 0.05  # through the delay line
+            assert client.get("/_link/profile").json()["uplink"] == 0.05
+
+
+def test_the_replay_stand_in_in_process_leaves_no_thread_behind(recording: Path) -> None:
+    with no_thread_left():
+        timeline = Timeline(recording)
+        app = create_replay_app(
+            timeline, Player(timeline.start_ns, timeline.end_ns), AccessPolicy("127.0.0.1", 8123)
+        )
+        with TestClient(app, base_url="http://127.0.0.1:8123") as client:
+            assert client.put("/_replay", json={"playing": True}).json()["playing"]
+            with client.websocket_connect("/api/telemetry") as socket:
+                assert socket.receive_json()["type"]
+
+
+def test_a_console_watching_a_replay_leaves_no_thread_behind(recording: Path) -> None:
+    """Its playback poller and the thread that reads the recording for the timeline, besides
+    the console's own (the feed, the status bar, viser's)."""
+    with (
+        running(
+            "replay-serve", str(recording), "--port", str(free_port()), "--paused", health="/_replay"
+        ) as robot,
+        no_thread_left(),
+    ):
+        app = ConsoleApp(robot.url, port=free_port(), replay=True)
+        app.connect(timeout=30.0)
+        assert app.playback is not None
+        deadline = time.monotonic() + 30.0
+        while app.playback.record is None:  # the recording read and its commands marked
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+        assert app.playback.running
+        app.close()
+        assert not app.playback.running
