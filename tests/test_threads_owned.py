@@ -63,8 +63,8 @@ def test_the_replay_stand_in_in_process_leaves_no_thread_behind(recording: Path)
         )
         with TestClient(app, base_url="http://127.0.0.1:8123") as client:
             assert client.put("/_replay", json={"playing": True}).json()["playing"]
-            with client.websocket_connect("/api/telemetry") as socket:
-                assert socket.receive_json()["type"]
+            with client.websocket_connect("ws://127.0.0.1:8123/api/telemetry") as socket:
+                assert socket.receive_json()["type"] == "frames"
 
 
 def test_a_console_watching_a_replay_leaves_no_thread_behind(recording: Path) -> None:
