@@ -1,6 +1,7 @@
 """Shared measurement helpers for the robot_sim tests."""
 
 import os
+import threading
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
@@ -68,3 +69,17 @@ def ten_seeds(task: str) -> list[dict[str, Any]]:
     """`task`'s machine run headless on seeds 0-9, on every core: each run's `as_dict()`."""
     with ProcessPoolExecutor(max_workers=os.cpu_count()) as pool:
         return list(pool.map(_onboard, [(task, seed) for seed in range(10)]))
+
+
+# AnyIO's worker threads (FastAPI runs sync dependencies in them) belong to AnyIO's pool, which
+# retires an idle one after 10 s; they are not ours to stop.
+LIBRARY_POOL_THREADS = ("AnyIO worker thread",)
+
+
+def threads_started_since(before: set[int | None]) -> list[str]:
+    """The names of live threads started since `before` (their idents), library pools aside."""
+    return [
+        t.name
+        for t in threading.enumerate()
+        if t.ident not in before and t.is_alive() and not t.name.startswith(LIBRARY_POOL_THREADS)
+    ]

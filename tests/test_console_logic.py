@@ -27,6 +27,7 @@ from robot_sim.sim import Simulation
 from robot_sim.task_frames import TaskFrame, TaskFrames, unit_quaternion
 from server.client import RobotClient
 from server.models import GeometryModel
+from tests.helpers import threads_started_since
 from web.app import ConsoleApp
 from web.arm_bodies import FIXTURE_OPACITY
 from web.defaults import load_defaults
@@ -271,8 +272,7 @@ def test_close_stops_every_thread(server: ServiceProcess) -> None:
         assert app.threads_running() == []
         assert time.monotonic() - started < 5.0
         assert not app.log.errands.run("ptwl-late", lambda: None)  # closed: nothing starts
-    left = [t.name for t in threading.enumerate() if t.ident not in before and t.is_alive()]
-    assert left == []
+    assert threads_started_since(before) == []
 
 
 def test_console_refuses_a_non_loopback_bind() -> None:

@@ -12,6 +12,7 @@ from fastapi.testclient import TestClient
 import server.routes.commands as command_routes
 from server.app import create_app
 from server.config import ServerConfig
+from tests.helpers import threads_started_since
 
 
 def test_a_command_is_checked_and_queued_on_the_simulation_thread(
@@ -54,5 +55,4 @@ def test_the_server_in_process_leaves_no_thread_behind(tmp_path: Path) -> None:
         assert client.post("/api/commands", json={"type": "rwe", "duration": 0.1}).status_code == 202
         names = {thread.name for thread in threading.enumerate()}
         assert {"ptwl-sim", "ptwl-record"} <= names
-    left = [t.name for t in threading.enumerate() if t.ident not in before and t.is_alive()]
-    assert left == []
+    assert threads_started_since(before) == []

@@ -22,6 +22,7 @@ from ptwl.launcher import free_port, running, running_server
 from recording.replay.player import Player
 from recording.replay.timeline import Timeline
 from server.replay.app import create_replay_app
+from tests.helpers import threads_started_since
 from web.app import ConsoleApp
 
 
@@ -31,7 +32,7 @@ def no_thread_left() -> Iterator[None]:
     yield
     deadline = time.monotonic() + 5.0  # a joined thread is gone; this is slack for the check only
     while True:
-        left = [t.name for t in threading.enumerate() if t.ident not in before and t.is_alive()]
+        left = threads_started_since(before)
         if not left or time.monotonic() > deadline:
             break
         time.sleep(0.05)
