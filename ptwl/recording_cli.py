@@ -65,7 +65,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     flags = ["--speed", f"{args.speed}", *(["--paused"] if args.paused else [])]
     # Not echoed: the first "on http://" a launcher sees must be the console's.
     try:
-        robot = start(  # it indexes the file first: ~18 s for an hour of recording (README)
+        robot = start(  # it indexes the file first: ~18 s for an hour of recording (docs/recording.md)
             "replay-serve",
             str(args.file),
             "--port",

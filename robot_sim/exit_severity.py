@@ -1,5 +1,5 @@
 """How bad each exit condition is: the one table the console's colours and toasts, the MCAP log
-levels and the README's list are drawn from (tests/test_exit_severity.py holds the README to it).
+levels and docs/robot.md's list are drawn from (tests/test_exit_severity.py holds docs/robot.md to it).
 
 - success: the behavior did what it was sent for;
 - notice: it did not run to its end, by someone's choice (STOP, the link's age limit);

@@ -1,4 +1,4 @@
-"""API request and response models: the contract in ARCHITECTURE.md, SI units, base frame.
+"""API request and response models: the contract in docs/architecture.md, SI units, base frame.
 
 Behavior parameters are robot_sim.params' models themselves, so the API, the config loader and
 the library validate the same way.

@@ -1,4 +1,4 @@
-"""Attractor continuity (ARCHITECTURE, behaviors): no start, preemption or STOP jerks a held force.
+"""Attractor continuity (docs/architecture.md, behaviors): no start, preemption or STOP jerks a held force.
 
 A press held at 15 N on the plate must survive any command's start, a preemption and STOP to
 within 10 % over the first 50 ms; after a breach a PTWL pushing further is "stuck" (breaches

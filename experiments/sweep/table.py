@@ -29,7 +29,7 @@ def _bool(text: str) -> bool:
     return text == "1"
 
 
-# name, parser, meaning (the README points here for the columns)
+# name, parser, meaning (docs/sweeps.md points here for the columns)
 COLUMNS: list[tuple[str, Callable[[str], Any], str]] = [
     ("task", str, "the task (its scene and state machine)"),
     ("operator", str, "ground (move-and-wait, one behavior per round trip) or onboard (one state machine)"),
