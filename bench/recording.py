@@ -1,7 +1,7 @@
 """Benchmark: `ptwl report` and `ptwl replay`'s index over a long session recording: wall time
 and peak memory (each in a fresh process: its peak RSS is its own).
 
-The session is written by the recorder the robot uses (recording/writer.py), as `ptwl serve
+The session is written by the recorder the robot uses (ptwl/recording/writer.py), as `ptwl serve
 --record` fills it: a 50 Hz telemetry state (a real simulation state, its numbers moving), a
 command every 20 s (queued, running, done, and its step), the task frames whole on each scene
 load and on each frame added (one every 10 s), and a scene reset every 10 min (a new trial).
@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from recording.writer import SessionRecorder
+from ptwl.recording.writer import SessionRecorder
 from robot_sim.geometry import moving_bodies, scene_geometry
 from robot_sim.sim import Simulation
 from robot_sim.telemetry import frames_message, state_fields
@@ -136,7 +136,7 @@ def measure(code: str, path: Path) -> tuple[float, float, float, str]:
 
 REPORT = "from ptwl.cli import main\nrc = main(['report', '--json', sys.argv[1]])\nassert rc == 0"
 REPLAY_INDEX = (
-    "from pathlib import Path\nfrom recording.replay.timeline import Timeline\n"
+    "from pathlib import Path\nfrom ptwl.recording.replay.timeline import Timeline\n"
     "timeline = Timeline(Path(sys.argv[1]))\nprint(len(timeline.telemetry.values))"
 )
 
@@ -150,7 +150,7 @@ def main() -> None:
         path = args.file or Path(tmp) / "session.mcap"
         if not path.exists():
             write_session(path, args.minutes * 60)
-        from recording.reader import Scan
+        from ptwl.recording.reader import Scan
 
         scan = Scan(path, ())  # counts, decodes nothing
         for _ in scan.located():

@@ -31,9 +31,9 @@ from pathlib import Path
 import httpx
 import websockets
 
-from guard.outbox import is_state
+from ptwl.guard.outbox import is_state
 from ptwl.launcher import ServiceProcess, running_proxy, running_server
-from recording.reader import read
+from ptwl.recording.reader import read
 
 CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
 

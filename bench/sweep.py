@@ -27,9 +27,9 @@ from unittest import mock
 import mujoco
 
 import robot_sim.sim
-from experiments.sweep.backends import run_local
-from experiments.sweep.spec import TrialSpec
-from experiments.sweep.trial import simulate
+from ptwl.experiments.sweep.backends import run_local
+from ptwl.experiments.sweep.spec import TrialSpec
+from ptwl.experiments.sweep.trial import simulate
 
 
 def rate(specs: list[TrialSpec], workers: int) -> tuple[dict[str, Any], list[dict[str, Any]]]:

@@ -1,5 +1,5 @@
 """Benchmark: the predictive display's prediction error, at 1, 3 and 5 s round trips, in free
-space and in contact (issue 14's closing figures), on experiments/twin/trial.py's virtual clock.
+space and in contact (issue 14's closing figures), on ptwl/experiments/twin/trial.py's virtual clock.
 
 For each case: the twin's port error against the telemetry that later shows the same instant
 (max and p95 over every state judged, mm), and as the baseline the same states against the
@@ -13,7 +13,7 @@ restart-and-run over a round trip (what each 0.5 s resync costs the console).
 import json
 import time
 
-from experiments.twin.trial import contact_moves, free_space_moves, run_trial
+from ptwl.experiments.twin.trial import contact_moves, free_space_moves, run_trial
 from robot_sim.behaviors import BehaviorParams
 from robot_sim.params import PtwlParams
 from robot_sim.sim import Simulation

@@ -10,11 +10,11 @@
   lost. Ping/pong is answered per hop, undelayed: with multi-second delays a delayed pong would
   trip the 20 s keepalive of websockets/uvicorn and kill healthy connections. Whether the robot
   is alive is judged end to end from the telemetry's age (`sent_at`), not from pings.
-- A client's downlink messages wait in its outbox (guard/outbox.py, the robot's rule too): a
+- A client's downlink messages wait in its outbox (ptwl/guard/outbox.py, the robot's rule too): a
   state not yet sent is replaced by the newer one, events wait up to 256, then the client is
   closed with 1013; so a client that never reads costs at most that, not a queue that grows.
 - `/_link/...` is the control API: local, never delayed, never forwarded.
-- Access (guard/): Host, Origin and the token are checked on every route and socket before
+- Access (ptwl/guard/): Host, Origin and the token are checked on every route and socket before
   anything is delayed or forwarded; the upstream sees no Origin (it was judged here). Bodies
   are capped at 64 KiB and must be strict JSON.
 - STOP always gets through: a request whose client goes away is cancelled upstream at once (an
@@ -41,14 +41,14 @@ from starlette.types import Receive, Scope, Send
 from starlette.websockets import WebSocket, WebSocketDisconnect
 from yarl import URL
 
-from guard.access import AccessPolicy
-from guard.disconnect import client_gone
-from guard.json_body import JsonBodyError, parse_json
-from guard.outbox import Close, Outbox
-from guard.stack import install_guards
 from latency.clock import RealTimeDriver
 from latency.delay_line import Dropped
 from latency.link import Link
+from ptwl.guard.access import AccessPolicy
+from ptwl.guard.disconnect import client_gone
+from ptwl.guard.json_body import JsonBodyError, parse_json
+from ptwl.guard.outbox import Close, Outbox
+from ptwl.guard.stack import install_guards
 
 HOP_BY_HOP = {
     "connection",

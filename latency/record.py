@@ -1,7 +1,7 @@
 """Optional per-message record: JSON lines, or MCAP when the file ends in `.mcap`.
 
 JSON lines are line-buffered: each record reaches the file as it is written, so a crash (kill -9)
-loses at most the line being written. An MCAP record (recording/writer.py, topic
+loses at most the line being written. An MCAP record (ptwl/recording/writer.py, topic
 `/link/messages`) loses at most its last chunk, under 1 s. At 2 x 50 Hz telemetry that is ~100
 records a second, nothing next to the proxy's own work.
 """
@@ -15,7 +15,7 @@ from typing import IO, TYPE_CHECKING, Any, Protocol
 from latency.delay_line import Dropped, Entry
 
 if TYPE_CHECKING:
-    from recording.writer import SessionRecorder
+    from ptwl.recording.writer import SessionRecorder
 
 
 def released_fields(entry: Entry, now: float) -> dict[str, Any]:
@@ -69,7 +69,7 @@ class JsonLinesRecorder:
 
 
 class McapRecorder:
-    """Into a recording's `/link/messages` (recording/writer.py's SessionRecorder). `stamp` makes
+    """Into a recording's `/link/messages` (ptwl/recording/writer.py's SessionRecorder). `stamp` makes
     a record's log time from the link-clock time it happened (a release, or a drop's arrival):
     the proxy uses the wall clock, so a link file lines up with the robot's recording of the
     same session; a virtual-time trial uses its own clock."""
@@ -91,7 +91,7 @@ class McapRecorder:
 def open_recorder(path: Path) -> Recorder:
     if path.suffix != ".mcap":
         return JsonLinesRecorder(path)
-    from recording.writer import SessionRecorder, versions  # only an MCAP record needs it
+    from ptwl.recording.writer import SessionRecorder, versions  # only an MCAP record needs it
 
     return McapRecorder(
         SessionRecorder(path, {"source": "ptwl proxy", **versions()}), lambda _: time.time_ns()

@@ -6,13 +6,13 @@ from pathlib import Path
 
 import uvicorn
 
-from guard.access import AccessPolicy, check_token_setting
-from guard.listen import bind, listening_url
 from latency.link import Link
 from latency.named import named_profile
 from latency.profile import LinkProfile
 from latency.proxy import LinkProxy
 from latency.record import open_recorder
+from ptwl.guard.access import AccessPolicy, check_token_setting
+from ptwl.guard.listen import bind, listening_url
 
 
 @dataclass(frozen=True)

@@ -76,8 +76,8 @@ def _stop_on_sigterm(signum: int, frame: object) -> None:
 
 
 def cmd_up(args: argparse.Namespace) -> int:
+    from ptwl.recording.paths import check_record_path
     from ptwl.up import link_record, up
-    from recording.paths import check_record_path
 
     if args.rtt < 0:
         raise ConfigError(f"--rtt must be >= 0 s, got {args.rtt:g}")
@@ -94,7 +94,7 @@ def cmd_up(args: argparse.Namespace) -> int:
 
 def cmd_console(args: argparse.Namespace) -> int:
     # Imported here: only this command needs viser.
-    from guard.access import is_loopback
+    from ptwl.guard.access import is_loopback
     from web.cli import run_console
 
     if not is_loopback(args.host):
@@ -163,7 +163,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
 
 def cmd_proxy(args: argparse.Namespace) -> int:
-    # Imported here: the link depends on nothing of ours, and only this command needs it.
+    # Imported here: only this command needs the link (aiohttp and its delay line).
     from latency.serve import ProxyConfig, serve_proxy
 
     serve_proxy(
@@ -280,7 +280,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _access_flags(parser: argparse.ArgumentParser, hosts: bool = True) -> None:
-    """Who else may reach a server: the Host and Origin checks' allow-lists (guard/access.py)."""
+    """Who else may reach a server: the Host and Origin checks' allow-lists (ptwl/guard/access.py)."""
     if hosts:
         parser.add_argument(
             "--allow-host", action="append", default=[], metavar="NAME", help="answer to this Host name too"

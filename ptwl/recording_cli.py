@@ -32,9 +32,9 @@ def add_recording_parsers(sub: "argparse._SubParsersAction[argparse.ArgumentPars
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    """Streams the file (recording/reader.py's bounds); a file no writer of ours made is a
+    """Streams the file (ptwl/recording/reader.py's bounds); a file no writer of ours made is a
     RecordingError (a ValueError): one line naming it, exit 2."""
-    from recording.report import report_json, report_text
+    from ptwl.recording.report import report_json, report_text
 
     _check_file(args.file)
     if args.json:
@@ -54,7 +54,7 @@ def cmd_replay_serve(args: argparse.Namespace) -> int:
 
 def cmd_replay(args: argparse.Namespace) -> int:
     """The recording as a robot, and the console on it; Ctrl-C stops both."""
-    from recording.replay.player import MAX_SPEED, SPEEDS
+    from ptwl.recording.replay.player import MAX_SPEED, SPEEDS
 
     _check_file(args.file)
     if not min(SPEEDS) <= args.speed <= MAX_SPEED:

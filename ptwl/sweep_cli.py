@@ -9,9 +9,9 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-from experiments.sweep.spec import BACKENDS, OPERATORS, SweepSettings
 from latency.named import named_profiles
 from latency.profile import MAX_DELAY_S
+from ptwl.experiments.sweep.spec import BACKENDS, OPERATORS, SweepSettings
 from robot_sim.params import MAX_AGE_S
 from robot_sim.policies import POLICIES
 
@@ -69,9 +69,9 @@ def settings_from(args: argparse.Namespace, argv: list[str]) -> SweepSettings:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     # Imported here: matplotlib and the sweep machinery would add ~0.8 s to every `ptwl` start.
-    from experiments.sweep.backends import BackendMissing
-    from experiments.sweep.plots import findings
-    from experiments.sweep.sweep import run_sweep
+    from ptwl.experiments.sweep.backends import BackendMissing
+    from ptwl.experiments.sweep.plots import findings
+    from ptwl.experiments.sweep.sweep import run_sweep
 
     settings = settings_from(args, sys.argv[1:])
     if args.realtime:
@@ -137,7 +137,7 @@ def add_sweep_parser(sub: "argparse._SubParsersAction[argparse.ArgumentParser]")
 
 def realtime(settings: SweepSettings) -> int:
     """--realtime: the grid point through a real robot and link, against virtual time."""
-    from experiments.sweep.realtime import NotOneGridPoint, cross_check, link_delays
+    from ptwl.experiments.sweep.realtime import NotOneGridPoint, cross_check, link_delays
     from ptwl.launcher import running_proxy, running_server
 
     try:

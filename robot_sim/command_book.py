@@ -9,7 +9,7 @@ change (queued, running, a state machine's step, done) goes through `on_change`,
 the changes happened; the book keeps the last `history_max` ended commands.
 
 Clock-free and thread-free, so the robot server (real time, its own lock: server/commands.py),
-the sweeps' virtual robot (virtual time: experiments/sweep/robot.py) and the ground twin's trial
+the sweeps' virtual robot (virtual time: ptwl/experiments/sweep/robot.py) and the ground twin's trial
 harness run this same rule: the clock (Unix seconds, real or virtual) and the ids are given.
 """
 

@@ -2,7 +2,7 @@
 next queued command starts when no behavior runs (checked against the task frames it names), a
 behavior's end is the command's end or a state machine's step, STOP aborts the running command
 and drops the queue. The real-time server (server/runner.py) and the sweeps' virtual robot
-(experiments/sweep/robot.py) both run commands through this, on their own clocks."""
+(ptwl/experiments/sweep/robot.py) both run commands through this, on their own clocks."""
 
 from collections.abc import Callable
 from dataclasses import dataclass

@@ -1,7 +1,7 @@
 """Running one command on a Simulation: a behavior, or a task's state machine stepping at once.
 
 The one rule for what a command does on the robot, shared by the real-time server
-(server/runner.py) and the virtual-time sweeps (experiments/sweep): a behavior command starts
+(server/runner.py) and the virtual-time sweeps (ptwl/experiments/sweep): a behavior command starts
 its behavior; a `state_machine` command starts its machine's first step and, each time a step
 ends, the next one in the same control tick (onboard: no link in between). STOP and faults end a
 machine too: it is told, and ends `aborted` or `fault`.

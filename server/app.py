@@ -6,7 +6,7 @@ from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
 
-from guard.stack import install_guards
+from ptwl.guard.stack import install_guards
 from robot_sim.command_book import CommandRecord
 from robot_sim.limits import COMMAND_HISTORY_MAX, COMMAND_QUEUE_MAX
 from server.commands import CommandBook, CommandIds

@@ -20,7 +20,7 @@ from ptwl_config import PtwlError
 from websockets.exceptions import ConnectionClosedOK
 from websockets.sync.client import connect
 
-from guard.access import bearer_header
+from ptwl.guard.access import bearer_header
 from robot_sim.telemetry import FRAMES_REV_HEADER
 from server.models import (
     SENDER_HEADER,

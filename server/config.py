@@ -6,9 +6,9 @@ from pathlib import Path
 
 from ptwl_config import ConfigError  # a setting that cannot work; the message says what to do
 
-from guard.access import AccessPolicy, check_token_setting, is_loopback
-from guard.body_limit import BODY_LIMIT_BYTES
-from recording.paths import check_record_path
+from ptwl.guard.access import AccessPolicy, check_token_setting, is_loopback
+from ptwl.guard.body_limit import BODY_LIMIT_BYTES
+from ptwl.recording.paths import check_record_path
 from robot_sim.limits import SENT_AT_SKEW_S
 
 DEFAULT_PORT = 8000

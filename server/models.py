@@ -289,7 +289,7 @@ def _error(description: str) -> dict[str, Any]:
     return {"model": ErrorModel, "description": description}
 
 
-# Every route can answer these (guard/ runs before any route).
+# Every route can answer these (ptwl/guard/ runs before any route).
 COMMON_RESPONSES: dict[int | str, dict[str, Any]] = {
     400: _error("the Host header is not one of the server's names (DNS rebinding guard)"),
     401: _error("a token is set and none was sent (`Authorization: Bearer <token>`)"),

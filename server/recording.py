@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from recording.writer import SessionRecorder, versions
+from ptwl.recording.writer import SessionRecorder, versions
 from robot_sim.policies.run import StepRecord
 from robot_sim.telemetry import FramesMirror
 from server.config import ServerConfig

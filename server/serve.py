@@ -5,7 +5,7 @@ from dataclasses import replace
 
 import uvicorn
 
-from guard.listen import bind, listening_url
+from ptwl.guard.listen import bind, listening_url
 from server.app import create_app
 from server.config import ServerConfig
 

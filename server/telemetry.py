@@ -1,6 +1,6 @@
 """Fan-out of telemetry and command events to WebSocket clients (event-loop side).
 
-Each client has its own outbox (guard/outbox.py, the same rule as the link's): `publish` never
+Each client has its own outbox (ptwl/guard/outbox.py, the same rule as the link's): `publish` never
 waits; a state waiting for a slow reader is replaced by the newer one; a client that falls more
 than EVENT_BACKLOG events behind is closed with 1013 rather than slowing anyone else, and may
 reconnect for the latest state.
@@ -8,7 +8,7 @@ reconnect for the latest state.
 
 import time
 
-from guard.outbox import Outbox
+from ptwl.guard.outbox import Outbox
 
 
 class Broadcaster:

@@ -17,8 +17,8 @@ import httpx
 import pytest
 
 from ptwl.launcher import free_port, running_console, running_proxy, running_server
+from ptwl.recording.reader import read
 from ptwl.up import RestartBudget
-from recording.reader import read
 from tests.console_page import (
     command_id,
     command_status,

@@ -10,15 +10,15 @@ from pathlib import Path
 from ptwl_config import ConfigError, PtwlError
 
 from robot_sim.errors import RobotSimError
-from tests.test_layers import DIRS, LAYERS, ROOT
+from tests.test_layers import LAYERS, directory_of, files_of
 
 
 def public_classes() -> list[tuple[str, str]]:
     """(module, class name) of every public class with a base, in every package."""
     found = []
     for package in LAYERS:
-        directory = ROOT / DIRS.get(package, package)
-        for path in directory.rglob("*.py"):
+        directory = directory_of(package)
+        for path in files_of(package):
             parts = [package, *path.relative_to(directory).with_suffix("").parts]
             module = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
             for node in ast.parse(Path(path).read_text()).body:
@@ -41,7 +41,7 @@ def test_package_roots_and_builtin_kinds_are_kept() -> None:
     """robot_sim keeps its own root under the project's; an error a caller catches as a
     built-in kind still is one."""
     from latency.named import LinkConfigError
-    from recording.reader import RecordingError
+    from ptwl.recording.reader import RecordingError
     from robot_sim.command_book import FutureSentAtError, QueueFullError
     from robot_sim.errors import UnknownNameError
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from foxglove.messages import LogLevel
 
-from recording.well_known import log_level
+from ptwl.recording.well_known import log_level
 from robot_sim.behaviors.base import ExitCondition
 from robot_sim.exit_severity import EXIT_SEVERITY, Severity, severity
 from web.history import exit_color_hex

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from mcap.reader import make_reader
 
-from recording.writer import SessionRecorder
+from ptwl.recording.writer import SessionRecorder
 from robot_sim.finite import finite_json, finite_or_none, finite_vector_or_none
 
 NAN, INF = math.nan, math.inf

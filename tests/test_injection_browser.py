@@ -16,8 +16,8 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
-from experiments.sweep.spec import TrialSpec
-from experiments.sweep.trial import simulate
+from ptwl.experiments.sweep.spec import TrialSpec
+from ptwl.experiments.sweep.trial import simulate
 from ptwl.launcher import free_port, running
 from server.models import SENDER_HEADER
 from tests.console_page import _load

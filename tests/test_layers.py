@@ -11,37 +11,59 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-# Bottom to top. ptwl_config is the `config/` directory's package.
+# Bottom to top. ptwl_config is the `config/` directory's package; guard, recording and
+# experiments live under the ptwl namespace (ptwl/<name>/), the rest of ptwl (the command line,
+# the launcher) is the top but for bench, which is not installed.
 LAYERS = [
     "ptwl_config",
-    "guard",
+    "ptwl.guard",
     "robot_sim",
-    "recording",
+    "ptwl.recording",
     "latency",
     "server",
     "web",
-    "experiments",
+    "ptwl.experiments",
     "ptwl",
     "bench",
 ]
 DIRS = {"ptwl_config": "config"}
 
 
+def directory_of(layer: str) -> Path:
+    return ROOT / DIRS.get(layer, layer.replace(".", "/"))
+
+
+def layer_of(module: str) -> str | None:
+    """The layer a dotted module name belongs to: the longest layer name it starts with."""
+    matches = [layer for layer in LAYERS if module == layer or module.startswith(layer + ".")]
+    return max(matches, key=len, default=None)
+
+
+def files_of(layer: str) -> list[Path]:
+    """The layer's own files (ptwl's without its sub-layers)."""
+    nested = [directory_of(other) for other in LAYERS if other.startswith(layer + ".")]
+    return [
+        path
+        for path in directory_of(layer).rglob("*.py")
+        if not any(path.is_relative_to(inner) for inner in nested)
+    ]
+
+
 def imports_of(package: str) -> dict[str, set[str]]:
-    """{imported package: the files that import it}, every import in the package's files."""
+    """{imported layer: the files that import it}, every import in the layer's files."""
     found: dict[str, set[str]] = {}
-    for path in (ROOT / DIRS.get(package, package)).rglob("*.py"):
+    for path in files_of(package):
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.Import):
                 names = [alias.name for alias in node.names]
             elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-                names = [node.module]
+                names = [f"{node.module}.{alias.name}" for alias in node.names]
             else:
                 continue
             for name in names:
-                root = name.split(".")[0]
-                if root in LAYERS and root != package:
-                    found.setdefault(root, set()).add(str(path.relative_to(ROOT)))
+                layer = layer_of(name)
+                if layer is not None and layer != package:
+                    found.setdefault(layer, set()).add(str(path.relative_to(ROOT)))
     return found
 
 
@@ -58,9 +80,9 @@ def test_every_import_points_down() -> None:
 def module_graph(package: str) -> dict[str, set[str]]:
     """{module: the modules of the same package it imports at run time (lazily or not; an
     `if TYPE_CHECKING:` import is for the type checker only)}."""
-    directory = ROOT / DIRS.get(package, package)
+    directory = directory_of(package)
     modules: dict[str, Path] = {}
-    for path in directory.rglob("*.py"):
+    for path in files_of(package):
         parts = [package, *path.relative_to(directory).with_suffix("").parts]
         modules[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
     graph: dict[str, set[str]] = {}

@@ -189,10 +189,10 @@ def test_link_record_survives_kill_9(tmp_path: Path) -> None:
 def test_upstream_urls_can_only_name_the_upstream() -> None:
     """Both layers on their own: `//` paths are refused, and any path is joined onto the
     upstream's own scheme, host and port."""
-    from guard.access import AccessPolicy
     from latency.link import Link
     from latency.profile import LinkProfile
     from latency.proxy import LinkProxy
+    from ptwl.guard.access import AccessPolicy
 
     def scope(raw_path: str) -> dict[str, Any]:
         return {"raw_path": raw_path.encode("latin-1"), "path": raw_path}

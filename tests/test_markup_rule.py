@@ -11,7 +11,14 @@ from markupsafe import Markup
 from web.markup import add_html, show
 
 ROOT = Path(__file__).resolve().parent.parent
-PACKAGES = ["web", "recording", "server", "latency", "experiments", "ptwl", "bench", "guard", "robot_sim"]
+PACKAGES = [
+    "web",
+    "server",
+    "latency",
+    "ptwl",
+    "bench",
+    "robot_sim",
+]  # ptwl holds guard, recording, experiments
 SINKS = {"add_html", "add_markdown"}
 PAYLOAD = "<img src=x onerror=alert(1)>\"'&"
 

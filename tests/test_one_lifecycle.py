@@ -12,7 +12,7 @@ from typing import Any
 
 import httpx
 
-from experiments.sweep.robot import Post, VirtualRobot
+from ptwl.experiments.sweep.robot import Post, VirtualRobot
 from ptwl.launcher import running_server
 from robot_sim.command_book import CommandRecord, QueueFullError
 from robot_sim.command_request import COMMAND

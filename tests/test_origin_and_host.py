@@ -13,7 +13,7 @@ import pytest
 import viser
 import websockets
 
-from guard.access import AccessPolicy
+from ptwl.guard.access import AccessPolicy
 from ptwl.launcher import ServiceProcess, running_console, running_proxy, running_server
 from server.client import RobotClient
 
@@ -138,7 +138,7 @@ def test_console_socket_refuses_a_foreign_origin(stack: tuple[ServiceProcess, ..
 def test_every_server_says_its_url_one_way_with_ipv6_in_brackets() -> None:
     """The robot, the link, the replay and the console print the URL they listen on through one
     function (the link's own copy printed http://::1:8001, which no client can open)."""
-    from guard.listen import bind, http_url, listening_url
+    from ptwl.guard.listen import bind, http_url, listening_url
 
     assert http_url("::1", 8001) == "http://[::1]:8001"
     assert http_url("127.0.0.1", 8000) == "http://127.0.0.1:8000"

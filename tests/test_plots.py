@@ -12,11 +12,11 @@ from typing import Any
 import numpy as np
 import pytest
 
-from experiments.sweep.spec import TrialSpec
-from experiments.sweep.trial import simulate
-from recording import topics
-from recording.reader import read
-from recording.replay.timeline import Timeline
+from ptwl.experiments.sweep.spec import TrialSpec
+from ptwl.experiments.sweep.trial import simulate
+from ptwl.recording import topics
+from ptwl.recording.reader import read
+from ptwl.recording.replay.timeline import Timeline
 from web import plots as plots_module
 from web.plots import WrenchPlots
 from web.replay_marks import marks_html, slider_marks

@@ -20,9 +20,9 @@ import pytest
 from PIL import Image
 
 from ptwl.launcher import ServiceProcess, free_port, running, running_console, running_proxy, running_server
-from recording import topics
-from recording.reader import read
-from recording.replay.timeline import Timeline
+from ptwl.recording import topics
+from ptwl.recording.reader import read
+from ptwl.recording.replay.timeline import Timeline
 from server.client import RobotClient
 from tests.console_page import _load, inputs_for, open_console, pixels_of_hue
 

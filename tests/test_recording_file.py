@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 
-from recording import topics
-from recording.reader import read
-from recording.well_known import FORCE_ARROW_M_PER_N
-from recording.writer import SessionRecorder
+from ptwl.recording import topics
+from ptwl.recording.reader import read
+from ptwl.recording.well_known import FORCE_ARROW_M_PER_N
+from ptwl.recording.writer import SessionRecorder
 from robot_sim.arm import JOINT_NAMES
 from robot_sim.geometry import moving_bodies, scene_geometry
 from robot_sim.sim import Simulation

@@ -15,8 +15,8 @@ from mcap.records import Channel, Chunk, DataEnd, Footer, Header, Message, Schem
 from mcap.stream_reader import MAGIC_SIZE
 from mcap.writer import Writer
 
-from recording import topics
-from recording.reader import (
+from ptwl.recording import topics
+from ptwl.recording.reader import (
     MAX_CHUNK_BYTES,
     MAX_JSON_BYTES,
     MAX_JSON_DEPTH,
@@ -25,8 +25,8 @@ from recording.reader import (
     decode_json,
     read,
 )
-from recording.replay.timeline import Timeline
-from recording.report import MAX_TRIAL_STEPS, report_json
+from ptwl.recording.replay.timeline import Timeline
+from ptwl.recording.report import MAX_TRIAL_STEPS, report_json
 
 MAGIC = b"\x89MCAP0\r\n"
 assert len(MAGIC) == MAGIC_SIZE
@@ -142,7 +142,7 @@ def test_a_chunk_that_lies_about_its_size_costs_at_most_what_it_declared(tmp_pat
 def test_a_file_decompressing_past_the_total_bound_is_refused(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from recording import reader
+    from ptwl.recording import reader
 
     inner = _records(*_json_channel(topics.STEPS), *[_message(b"{}", ns=i) for i in range(100)])
     path = _file(tmp_path / "many.mcap", *[_chunk(inner) for _ in range(10)])

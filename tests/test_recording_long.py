@@ -11,11 +11,11 @@ from pathlib import Path
 import pytest
 
 from bench.recording import write_session
-from recording import topics
-from recording.reader import Recording, read
-from recording.replay import timeline as timeline_module
-from recording.replay.timeline import Timeline
-from recording.report import report_json
+from ptwl.recording import topics
+from ptwl.recording.reader import Recording, read
+from ptwl.recording.replay import timeline as timeline_module
+from ptwl.recording.replay.timeline import Timeline
+from ptwl.recording.report import report_json
 
 SECONDS = 120  # 6,000 states, ~48,000 messages, 27 MB decompressed
 RESET_EVERY_S = 30  # four trials
@@ -48,11 +48,11 @@ def _peak_mb(code: str, path: Path) -> float:
 
 
 def test_report_and_replay_hold_far_less_than_the_file_decoded(session: Path) -> None:
-    imports = "import ptwl.cli, recording.report, recording.replay.timeline"
+    imports = "import ptwl.cli, ptwl.recording.report, ptwl.recording.replay.timeline"
     baseline = _peak_mb(imports, session)
     report = _peak_mb(f"{imports}\nassert ptwl.cli.main(['report', sys.argv[1]]) == 0", session)
-    replay = _peak_mb(f"{imports}\nrecording.replay.timeline.Timeline(Path(sys.argv[1]))", session)
-    listed = _peak_mb(f"{imports}\nfrom recording.reader import read\nread(Path(sys.argv[1]))", session)
+    replay = _peak_mb(f"{imports}\nptwl.recording.replay.timeline.Timeline(Path(sys.argv[1]))", session)
+    listed = _peak_mb(f"{imports}\nfrom ptwl.recording.reader import read\nread(Path(sys.argv[1]))", session)
     figures = {"baseline": baseline, "report": report, "replay": replay, "list": listed}
     assert report - baseline < STREAMED_MB, figures
     assert replay - baseline < STREAMED_MB, figures

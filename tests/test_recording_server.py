@@ -15,9 +15,9 @@ import websockets
 
 from ptwl.cli import main as ptwl_main
 from ptwl.launcher import ServiceProcess, start
+from ptwl.recording.reader import Recording, read
+from ptwl.recording.report import report_json
 from ptwl.up import _record_args, link_record
-from recording.reader import Recording, read
-from recording.report import report_json
 from server.client import RobotClient
 
 ONE_WAY_S = 0.1

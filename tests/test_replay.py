@@ -11,13 +11,13 @@ import httpx
 import pytest
 from fastapi.testclient import TestClient
 
-from experiments.sweep.spec import TrialSpec
-from experiments.sweep.trial import simulate
-from guard.access import AccessPolicy
+from ptwl.experiments.sweep.spec import TrialSpec
+from ptwl.experiments.sweep.trial import simulate
+from ptwl.guard.access import AccessPolicy
 from ptwl.launcher import free_port, running
-from recording.reader import read
-from recording.replay.player import Player
-from recording.replay.timeline import Timeline
+from ptwl.recording.reader import read
+from ptwl.recording.replay.player import Player
+from ptwl.recording.replay.timeline import Timeline
 from server.replay.app import KEEPALIVE_S, create_replay_app
 from tests.console_page import port_mm
 from tests.fake_clock import FakeClock

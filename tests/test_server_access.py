@@ -105,8 +105,8 @@ def test_a_weak_token_refuses_to_start(command: str, token: str) -> None:
 def test_a_token_in_the_query_string_opens_only_a_websocket() -> None:
     """Browsers cannot set headers on a WebSocket, so there `?token=` stands in for the bearer
     header; on plain HTTP it is refused (a URL with a secret ends up in logs and histories)."""
-    from guard.access import AccessPolicy
-    from guard.asgi import denial
+    from ptwl.guard.access import AccessPolicy
+    from ptwl.guard.asgi import denial
 
     policy = AccessPolicy("0.0.0.0", 8000, "s3cret-token-of-enough-length", (), ())
     host = {"host": "0.0.0.0:8000"}

@@ -168,7 +168,7 @@ def test_openapi_documents_every_parameter_with_units(server) -> None:  # type: 
 
 def test_api_docs_example_script_drives_a_ptwl_rwe_sequence(server) -> None:  # type: ignore[no-untyped-def]
     result = subprocess.run(
-        [sys.executable, "-m", "experiments.press_and_relieve", "--url", server.url],
+        [sys.executable, "-m", "ptwl.experiments.press_and_relieve", "--url", server.url],
         capture_output=True,
         text=True,
         timeout=120,

@@ -8,7 +8,7 @@ import time
 import pytest
 import websockets
 
-from guard.outbox import EVENT_BACKLOG, GONE, Close, Outbox
+from ptwl.guard.outbox import EVENT_BACKLOG, GONE, Close, Outbox
 from ptwl.launcher import ServiceProcess
 from server.telemetry import Broadcaster
 from tests.fake_clock import FakeClock

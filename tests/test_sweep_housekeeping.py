@@ -14,9 +14,9 @@ from typing import Any
 
 import pytest
 
-from experiments.sweep.spec import SweepSettings
-from experiments.sweep.sweep import OutDirectoryError, _check_directory, _write_json
 from ptwl.cli import main
+from ptwl.experiments.sweep.spec import SweepSettings
+from ptwl.experiments.sweep.sweep import OutDirectoryError, _check_directory, _write_json
 
 SWEEP = ["sweep", "--task", "quick_connect", "--rtt", "0,1", "--trials", "1", "--think", "1"]
 
@@ -152,7 +152,8 @@ def test_the_watcher_ends_a_worker_when_its_sweep_ends(when: str) -> None:
         sweep.kill()
         sweep.wait()
     code = (
-        f"from experiments.sweep import backends; backends._exit_when_gone({sweep.pid}); raise SystemExit(7)"
+        "from ptwl.experiments.sweep import backends; "
+        f"backends._exit_when_gone({sweep.pid}); raise SystemExit(7)"
     )
     worker = subprocess.Popen([sys.executable, "-c", code])
     try:

@@ -13,14 +13,14 @@ from typing import Any
 
 import pytest
 
-from experiments.sweep import sweep as sweep_module
-from experiments.sweep.backends import BackendMissing
-from experiments.sweep.spec import SweepSettings
-from experiments.sweep.summary import Fit, break_even_s, fits
-from experiments.sweep.sweep import OutDirectoryError, run_sweep
-from experiments.sweep.table import NAMES, read_rows
 from ptwl.cli import main
-from recording.reader import read
+from ptwl.experiments.sweep import sweep as sweep_module
+from ptwl.experiments.sweep.backends import BackendMissing
+from ptwl.experiments.sweep.spec import SweepSettings
+from ptwl.experiments.sweep.summary import Fit, break_even_s, fits
+from ptwl.experiments.sweep.sweep import OutDirectoryError, run_sweep
+from ptwl.experiments.sweep.table import NAMES, read_rows
+from ptwl.recording.reader import read
 
 SMALL: dict[str, Any] = {
     "task": "quick_connect",

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from experiments.sweep.realtime import NotOneGridPoint, cross_check, link_delays
-from experiments.sweep.spec import SweepSettings
+from ptwl.experiments.sweep.realtime import NotOneGridPoint, cross_check, link_delays
+from ptwl.experiments.sweep.spec import SweepSettings
 from ptwl.launcher import running_proxy, running_server
 
 

@@ -6,11 +6,11 @@ from pathlib import Path
 
 import pytest
 
-from experiments.sweep.operators import PATIENCE_S, THINK_SPREAD, UNSTARTED_MAX, latest_end_s
-from experiments.sweep.robot import VIRTUAL_EPOCH_S, Accepted, Post, Query, Status, VirtualRobot
-from experiments.sweep.spec import TrialSpec
-from experiments.sweep.trial import blackout_s, row, run_trial, simulate
 from latency.profile import Blackout, LinkProfile, Loss
+from ptwl.experiments.sweep.operators import PATIENCE_S, THINK_SPREAD, UNSTARTED_MAX, latest_end_s
+from ptwl.experiments.sweep.robot import VIRTUAL_EPOCH_S, Accepted, Post, Query, Status, VirtualRobot
+from ptwl.experiments.sweep.spec import TrialSpec
+from ptwl.experiments.sweep.trial import blackout_s, row, run_trial, simulate
 from robot_sim.params import PtwlParams
 from robot_sim.policies import policy_for
 

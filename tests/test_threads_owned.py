@@ -12,15 +12,15 @@ from pathlib import Path
 import pytest
 from fastapi.testclient import TestClient
 
-from experiments.sweep.spec import TrialSpec
-from experiments.sweep.trial import simulate
-from guard.access import AccessPolicy
 from latency.link import Link
 from latency.profile import LinkProfile
 from latency.proxy import LinkProxy
+from ptwl.experiments.sweep.spec import TrialSpec
+from ptwl.experiments.sweep.trial import simulate
+from ptwl.guard.access import AccessPolicy
 from ptwl.launcher import free_port, running, running_server
-from recording.replay.player import Player
-from recording.replay.timeline import Timeline
+from ptwl.recording.replay.player import Player
+from ptwl.recording.replay.timeline import Timeline
 from server.replay.app import create_replay_app
 from tests.helpers import threads_started_since
 from web.app import ConsoleApp

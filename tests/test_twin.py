@@ -1,11 +1,11 @@
 """The ground twin (issue 14's predictive display), on a virtual clock: robot, link and twin as
-the console runs them (experiments/twin/trial.py), its predictions judged against the telemetry that
+the console runs them (ptwl/experiments/twin/trial.py), its predictions judged against the telemetry that
 later shows the same instants."""
 
 import numpy as np
 import pytest
 
-from experiments.twin.trial import free_space_moves, run_trial
+from ptwl.experiments.twin.trial import free_space_moves, run_trial
 from robot_sim.behaviors import behavior_for
 from robot_sim.params import PtwlParams
 from robot_sim.sim import Simulation

@@ -2,7 +2,7 @@
 
 viser's server (websockets' `serve`) accepts a WebSocket from any page, so a page on another
 origin could open it and press Send. Browsers connect here instead; each connection's request
-head is judged by guard/ (Host, Origin) before a byte reaches viser, which listens on an
+head is judged by ptwl/guard/ (Host, Origin) before a byte reaches viser, which listens on an
 ephemeral loopback port. viser answers one request per connection (static files or the
 WebSocket upgrade), so judging the first head judges the whole connection.
 
@@ -23,10 +23,10 @@ from urllib.parse import urlsplit
 
 from ptwl_config import PtwlError
 
-from guard.access import AccessPolicy
-from guard.asgi import denial
-from guard.listen import host_port
-from guard.page_headers import CONSOLE_CSP, page_headers
+from ptwl.guard.access import AccessPolicy
+from ptwl.guard.asgi import denial
+from ptwl.guard.listen import host_port
+from ptwl.guard.page_headers import CONSOLE_CSP, page_headers
 
 MAX_HEAD_BYTES = 64 * 1024
 MARK = "x-ptwl-front-door"

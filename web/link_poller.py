@@ -6,7 +6,7 @@ from typing import Any
 
 import httpx
 
-from guard.access import bearer_header
+from ptwl.guard.access import bearer_header
 from web.worker import Worker
 
 POLL_S = 2.0

@@ -5,7 +5,7 @@ from typing import Any
 
 import httpx
 
-from guard.access import bearer_header
+from ptwl.guard.access import bearer_header
 
 
 class ReplayApi:

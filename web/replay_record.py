@@ -4,7 +4,7 @@
 The replay's robot stand-in serves the present only: the state at the playhead, the command records
 up to it. `ptwl replay` starts the console beside it, on the same machine and in the same working
 directory, so the file it names (GET /_replay `file`) is there to read. The console indexes it once,
-in the background (recording/replay/timeline.py: bounded memory, ~18 s for an hour of recording),
+in the background (ptwl/recording/replay/timeline.py: bounded memory, ~18 s for an hour of recording),
 and decodes only the few hundred states a seek needs.
 """
 
@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from recording.replay.timeline import Timeline
+from ptwl.recording.replay.timeline import Timeline
 
 
 @dataclass(frozen=True)

@@ -15,10 +15,10 @@ from typing import Annotated, Any
 from fastapi import APIRouter, FastAPI, HTTPException, Query, WebSocket, WebSocketDisconnect
 from pydantic import BaseModel, ConfigDict, Field
 
-from guard.access import AccessPolicy
-from guard.stack import install_guards
-from recording.replay.player import MAX_SPEED, SPEEDS, Player
-from recording.replay.timeline import Timeline
+from ptwl.guard.access import AccessPolicy
+from ptwl.guard.stack import install_guards
+from ptwl.recording.replay.player import MAX_SPEED, SPEEDS, Player
+from ptwl.recording.replay.timeline import Timeline
 from server.errors import install_error_handlers
 from server.models import (
     CommandStatus,

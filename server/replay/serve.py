@@ -5,10 +5,10 @@ from pathlib import Path
 
 import uvicorn
 
-from guard.access import AccessPolicy, check_token_setting
-from guard.listen import bind, listening_url
-from recording.replay.player import Player
-from recording.replay.timeline import Timeline
+from ptwl.guard.access import AccessPolicy, check_token_setting
+from ptwl.guard.listen import bind, listening_url
+from ptwl.recording.replay.player import Player
+from ptwl.recording.replay.timeline import Timeline
 from server.replay.app import create_replay_app
 
 

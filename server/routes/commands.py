@@ -5,7 +5,7 @@ from typing import Annotated
 from fastapi import APIRouter, Body, Header, HTTPException, Query, Request, status
 from fastapi.exceptions import RequestValidationError
 
-from guard.disconnect import client_gone
+from ptwl.guard.disconnect import client_gone
 from robot_sim.command_request import Command
 from robot_sim.params import GripperParams, PtwlParams, StateMachineParams
 from robot_sim.ptwl_warnings import ptwl_warnings

@@ -10,7 +10,7 @@ import contextlib
 
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 
-from guard.outbox import Close
+from ptwl.guard.outbox import Close
 from server.telemetry import Broadcaster, stamped
 
 router = APIRouter(tags=["telemetry"])

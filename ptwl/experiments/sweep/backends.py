@@ -15,8 +15,8 @@ from typing import Any
 
 from ptwl_config import PtwlError
 
-from experiments.sweep.spec import TrialSpec
-from experiments.sweep.trial import run_trial
+from ptwl.experiments.sweep.spec import TrialSpec
+from ptwl.experiments.sweep.trial import run_trial
 
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
 PARENT_POLL_S = 0.5  # the portable watcher's period: how long a worker may outlive its sweep

@@ -10,11 +10,11 @@ watches: a trial's row is the same with or without it (a test holds it to that).
 from pathlib import Path
 from typing import Any
 
-from experiments.sweep.robot import Done, VirtualRobot
-from experiments.sweep.spec import TrialSpec
 from latency.clock import SimulatedLink
 from latency.record import McapRecorder
-from recording.writer import SessionRecorder, versions
+from ptwl.experiments.sweep.robot import Done, VirtualRobot
+from ptwl.experiments.sweep.spec import TrialSpec
+from ptwl.recording.writer import SessionRecorder, versions
 from robot_sim.executor import CommandParams
 from robot_sim.geometry import moving_bodies, scene_geometry
 from robot_sim.telemetry import frames_message, state_fields

@@ -2,7 +2,7 @@
 
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from guard.respond import send_json
+from ptwl.guard.respond import send_json
 
 BODY_LIMIT_BYTES = 64 * 1024
 

@@ -2,7 +2,7 @@
 
 Checks run in order Host (400), Origin (403), token (401/403), before the app sees the request,
 so no route can forget them (docs and openapi.json included when a token is set). Every answer
-it lets out, a refusal too, carries the page headers (guard/page_headers.py: no framing, scripts
+it lets out, a refusal too, carries the page headers (ptwl/guard/page_headers.py: no framing, scripts
 only from the page's own origin).
 """
 
@@ -10,9 +10,9 @@ from urllib.parse import parse_qs
 
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from guard.access import AccessPolicy, bearer
-from guard.page_headers import API_CSP, with_page_headers
-from guard.respond import send_json
+from ptwl.guard.access import AccessPolicy, bearer
+from ptwl.guard.page_headers import API_CSP, with_page_headers
+from ptwl.guard.respond import send_json
 
 
 def _headers(scope: Scope) -> dict[str, str]:

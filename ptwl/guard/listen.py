@@ -4,7 +4,7 @@ uvicorn starts), with a bounded send buffer.
 SEND_BUFFER_BYTES is set on the listener, so every accepted connection inherits it (Linux) in
 place of autotuning up to 4 MiB: a telemetry client that stops reading then holds at most this in
 the kernel (doubled by Linux for its bookkeeping), about 7 s of 50 Hz states; after that its
-outbox (guard/outbox.py) holds what waits, by the rule there (recent states, events up to a
+outbox (ptwl/guard/outbox.py) holds what waits, by the rule there (recent states, events up to a
 backlog, then 1013). Without it, a stalled client could
 hide a minute of telemetry in the kernel before anything of ours noticed.
 """

@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from recording import topics
-from recording.reader import Recorded, Recording, RecordingError, Scan
+from ptwl.recording import topics
+from ptwl.recording.reader import Recorded, Recording, RecordingError, Scan
 from robot_sim.behaviors import BehaviorReport
 from robot_sim.finite import report_from_json
 from robot_sim.policies.run import paper_rows, report_metrics

@@ -10,7 +10,7 @@ from typing import Any
 from ptwl_config import PtwlError
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from guard.respond import send_json
+from ptwl.guard.respond import send_json
 
 MAX_DEPTH = 32  # our deepest body (a profile's blackout list) is 3 levels
 

@@ -14,7 +14,7 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
-from experiments.sweep.spec import KEY_FIELDS, cell
+from ptwl.experiments.sweep.spec import KEY_FIELDS, cell
 
 
 def _optional_str(text: str) -> str | None:

@@ -4,7 +4,7 @@ Everything is indexed by log time, so "the state at t" and "what happened betwee
 are binary searches. What the console reads live (GET /api/state, /api/geometry,
 /api/frames, /api/commands and the telemetry stream) is answered from here.
 
-Memory stays bounded however long the file: one pass (recording/reader.py, its bounds) checks
+Memory stays bounded however long the file: one pass (ptwl/recording/reader.py, its bounds) checks
 every message the replay serves and keeps only where each is (log time, the chunk's byte offset
 and the message's place in it: 21 B an entry once sorted, 33 B while the pass builds it; states
 and frames have two entries, as a series and in the stream; at most MAX_INDEXED). A message is
@@ -25,8 +25,8 @@ from typing import Any, overload
 
 import numpy as np
 
-from recording import topics
-from recording.reader import Located, RecordingError, Scan
+from ptwl.recording import topics
+from ptwl.recording.reader import Located, RecordingError, Scan
 
 MAX_INDEXED = 5_000_000  # messages on the replayed topics (~14 h at 50 Hz): <= ~330 MB of index at its peak
 MAX_COMMAND_BYTES = 4 * 2**20  # [B] command events' JSON, kept decoded (~10,000 events, ~50 MB)

@@ -35,7 +35,7 @@ from foxglove.messages import (
     Vector3,
 )
 
-from recording.topics import BASE_FRAME, WORLD_BODY
+from ptwl.recording.topics import BASE_FRAME, WORLD_BODY
 from robot_sim.exit_severity import Severity, severity
 
 FORCE_ARROW_M_PER_N = 0.005  # [m/N] 20 N draws a 10 cm arrow

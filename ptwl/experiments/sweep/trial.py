@@ -18,13 +18,13 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
-from experiments.sweep.operators import Operator, operator_for
-from experiments.sweep.recorder import TrialRecorder
-from experiments.sweep.robot import VIRTUAL_EPOCH_S, Done, Reply, Request, VirtualRobot
-from experiments.sweep.spec import TrialSpec
 from latency.clock import SimulatedLink
 from latency.delay_line import Dropped
 from latency.profile import LinkProfile
+from ptwl.experiments.sweep.operators import Operator, operator_for
+from ptwl.experiments.sweep.recorder import TrialRecorder
+from ptwl.experiments.sweep.robot import VIRTUAL_EPOCH_S, Done, Reply, Request, VirtualRobot
+from ptwl.experiments.sweep.spec import TrialSpec
 from robot_sim.policies.run import trial_metrics
 
 MAX_TRIAL_S = 3600.0  # [s] of virtual time: a trial still going has lost its way

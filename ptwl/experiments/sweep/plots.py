@@ -9,7 +9,7 @@ import matplotlib
 matplotlib.use("Agg")  # files only: no display on a server or a worker
 import matplotlib.pyplot as plt
 
-from experiments.sweep.summary import Fit, break_even_s, fits, groups, interval
+from ptwl.experiments.sweep.summary import Fit, break_even_s, fits, groups, interval
 
 COLOURS = {"ground": "tab:orange", "onboard": "tab:blue"}
 

@@ -19,8 +19,8 @@ which the operator gives up: the link is slower than the age it allows.
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
-from experiments.sweep.robot import Accepted, Done, Outcome, Post, Query, Reply, Request, Status
-from experiments.sweep.spec import TrialSpec
+from ptwl.experiments.sweep.robot import Accepted, Done, Outcome, Post, Query, Reply, Request, Status
+from ptwl.experiments.sweep.spec import TrialSpec
 from robot_sim.behaviors import BehaviorReport, Pose
 from robot_sim.executor import CommandParams
 from robot_sim.params import GripperParams, RweParams, StateMachineParams

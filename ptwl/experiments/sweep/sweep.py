@@ -23,11 +23,11 @@ import numpy as np
 from ptwl_config import PtwlError
 from tqdm import tqdm
 
-from experiments.sweep import backends
-from experiments.sweep.plots import write_report
-from experiments.sweep.spec import SweepSettings, TrialSpec
-from experiments.sweep.summary import write_summary
-from experiments.sweep.table import RowWriter, read_rows, row_key, write_sorted
+from ptwl.experiments.sweep import backends
+from ptwl.experiments.sweep.plots import write_report
+from ptwl.experiments.sweep.spec import SweepSettings, TrialSpec
+from ptwl.experiments.sweep.summary import write_summary
+from ptwl.experiments.sweep.table import RowWriter, read_rows, row_key, write_sorted
 
 # What a trial is: a directory's trials are only reusable under the same values.
 RECORDINGS = "recordings"  # --record: one MCAP per trial, named by TrialSpec.file_stem()

@@ -2,7 +2,7 @@
 
 Nothing lost: the file is finished properly on close; until then a chunk is closed and flushed
 to disk before it would span 1 s of log time, so a process killed outright (kill -9) leaves a
-file readable up to its last whole chunk (recording/reader.py reads such a file).
+file readable up to its last whole chunk (ptwl/recording/reader.py reads such a file).
 
 Not thread-safe: one thread feeds a recorder (the server gives it its own; a sweep trial is one
 thread already).
@@ -27,8 +27,8 @@ from foxglove.channels import (
 from foxglove.mcap import MCAPWriteOptions
 from foxglove.messages import FrameTransforms
 
-from recording import topics, well_known
-from recording.topics import ATTRACTOR_FRAME, PORT_FRAME, TASK_FRAME_PREFIX, WORLD_BODY
+from ptwl.recording import topics, well_known
+from ptwl.recording.topics import ATTRACTOR_FRAME, PORT_FRAME, TASK_FRAME_PREFIX, WORLD_BODY
 from robot_sim.arm import JOINT_NAMES
 from robot_sim.finite import finite_json
 

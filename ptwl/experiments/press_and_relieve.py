@@ -1,7 +1,7 @@
 """Press the probe onto the plate with PTWL, relieve the press with RWE, back off with PTWL.
 
     ptwl serve &                                  # or point --url at the link proxy
-    python -m experiments.press_and_relieve [--url http://127.0.0.1:8000] [--token T]
+    python -m ptwl.experiments.press_and_relieve [--url http://127.0.0.1:8000] [--token T]
 
 Prints each command's exit condition and forces, as the paper's tables count them.
 """

@@ -18,10 +18,10 @@ from typing import Any
 import httpx
 from ptwl_config import PtwlError
 
-from experiments.sweep.operators import Operator, operator_for
-from experiments.sweep.robot import Accepted, Done, Outcome, Post, Request, Status
-from experiments.sweep.spec import SweepSettings, TrialSpec
-from experiments.sweep.trial import MAX_TRIAL_S, run_trial
+from ptwl.experiments.sweep.operators import Operator, operator_for
+from ptwl.experiments.sweep.robot import Accepted, Done, Outcome, Post, Request, Status
+from ptwl.experiments.sweep.spec import SweepSettings, TrialSpec
+from ptwl.experiments.sweep.trial import MAX_TRIAL_S, run_trial
 from robot_sim.behaviors import Pose
 from robot_sim.finite import number_or_nan, report_from_json
 from server.client import RobotClient, RobotError

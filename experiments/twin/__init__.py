@@ -1,1 +1,0 @@
-"""The ground twin judged on a virtual clock (experiments/twin/trial.py)."""

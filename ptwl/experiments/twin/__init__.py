@@ -1,0 +1,1 @@
+"""The ground twin judged on a virtual clock (ptwl/experiments/twin/trial.py)."""
