@@ -152,3 +152,22 @@ def test_frames_named_by_waiting_commands_are_known() -> None:
     b.book.submit(PtwlParams(frame="bolt", gains_frame="bolt"))
     b.start_next()
     assert b.book.naming_frame("bolt") == [1, 3] and b.book.naming_frame("nut") == []
+
+
+def test_the_runner_starts_nothing_while_a_behavior_runs_outside_the_book() -> None:
+    """The runner's own guard (the book's only knows its own running command): a behavior
+    started on the simulation directly (`ptwl sim`, a test) is not preempted by the queue."""
+    from robot_sim.behaviors import behavior_for
+    from robot_sim.command_runner import CommandRunner
+    from robot_sim.sim import Simulation
+
+    sim = Simulation("free_space")
+    runner = CommandRunner(sim, CommandBook(8, 16, FakeClock(EPOCH_S), instance="test"))
+    outside = behavior_for(RweParams(duration=0.05))
+    sim.start(outside)
+    runner.book.submit(RweParams(duration=0.05))
+    assert runner.start_next() is None and sim.behavior is outside
+    while sim.behavior is not None:
+        sim.step()
+    started = runner.start_next()
+    assert started is not None and started.id == 1 and sim.behavior is not outside

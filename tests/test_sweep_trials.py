@@ -226,3 +226,36 @@ def test_jitter_past_the_max_age_expires_some_commands_and_the_task_still_comple
     r = row(simulate(spec))
     assert r["success"] and r["unstarted"] >= 1
     assert r["commands_sent"] == r["behaviors"] + r["gripper"] + r["unstarted"]  # each expiry sent again
+
+
+def test_only_expiries_in_a_row_make_the_operator_give_up() -> None:
+    """A command that ran in between starts the count again."""
+    from ptwl.experiments.sweep.operators import Operator
+    from ptwl.experiments.sweep.robot import Done, Outcome
+    from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
+    from robot_sim.params import RweParams
+
+    class Repeater(Operator):
+        """Sends one RWE after another, for ever."""
+
+        def begin(self, now: float, port: Pose) -> list:  # type: ignore[type-arg]
+            return [self._post(now, RweParams(duration=0.1))]
+
+        def _ended(self, now: float, report: BehaviorReport) -> None:
+            self._next = (now, RweParams(duration=0.1))
+
+    operator = Repeater(TrialSpec("lid", "ground", 2.0, 0.0, 0.0, 1, 2.0, None, 1.0), VIRTUAL_EPOCH_S)
+    operator.begin(0.0, Pose((0.4, 0.0, 0.3), (0.0, 1.0, 0.0, 0.0)))
+    expired = Outcome("expired", "2.00 s old at its start, over its max_age 1 s", None)
+    home = Pose((0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0))
+    ran = Outcome(
+        "completed", "", BehaviorReport("rwe", ExitCondition.COMPLETED, 0, 1, 0, 0, (0.0,) * 6, home)
+    )
+    for now, outcome in enumerate([expired, expired, ran, expired, expired]):
+        assert operator.pending is not None
+        operator.on_message(float(now), Done(operator.pending.tag, outcome))
+        operator.on_wake(float(now))  # after a run: the next command
+    assert not operator.finished and operator.unstarted == 4
+    assert operator.pending is not None
+    operator.on_message(9.0, Done(operator.pending.tag, expired))  # the third in a row
+    assert operator.finished and operator.end == "expired" and operator.unstarted == 5

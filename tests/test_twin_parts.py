@@ -1,0 +1,80 @@
+"""The ground twin's parts on their own (web/twin_judge.py, web/twin_inbox.py) and the commanded
+marker pair: the rules a full twin run only shows blurred (issue 28's mutation pass found each
+of these unguarded)."""
+
+import numpy as np
+import pytest
+import viser
+
+from robot_sim.params import RweParams
+from web.commanded_marker import CommandedMarker
+from web.twin_inbox import TwinInbox
+from web.twin_judge import ERROR_WINDOW_S, MATCH_S, RECORD_S, PredictionJudge
+from web.twin_sim import Sent
+
+
+def state(sim_time: float, x_m: float) -> dict:
+    return {"sim_time": sim_time, "port": {"position": [x_m, 0.0, 0.0]}}
+
+
+def test_a_prediction_judges_only_a_state_within_match_s_of_it() -> None:
+    judge = PredictionJudge()
+    judge.record(1.0, np.array([0.1, 0.0, 0.0]))
+    assert judge.judge(state(1.0 + 0.9 * MATCH_S, 0.103), 100.0) == pytest.approx(0.003)
+    assert judge.judge(state(1.0 + 1.5 * MATCH_S, 0.103), 100.0) is None  # nothing predicted then
+
+
+def test_the_readouts_max_covers_only_the_last_error_window() -> None:
+    judge = PredictionJudge()
+    judge.record(1.0, np.array([0.1, 0.0, 0.0]))
+    judge.record(2.0, np.array([0.2, 0.0, 0.0]))
+    judge.judge(state(1.0, 0.110), arrived_wall=100.0)  # 10 mm off
+    assert judge.summary() == pytest.approx((0.010, 0.010))
+    judge.judge(state(2.0, 0.201), arrived_wall=100.0 + ERROR_WINDOW_S + 0.1)  # 1 mm, 5.1 s later
+    assert judge.summary() == pytest.approx((0.001, 0.001))  # the 10 mm has left the window
+    assert judge.judged_wall() == 100.0 + ERROR_WINDOW_S + 0.1
+
+
+def test_a_prediction_is_kept_every_record_s_and_a_scene_reload_forgets_them() -> None:
+    judge = PredictionJudge()
+    assert judge.due(0.0)
+    judge.record(0.0, np.zeros(3))
+    assert not judge.due(0.5 * RECORD_S) and judge.due(RECORD_S)
+    judge.judge(state(0.0, 0.0), 1.0)
+    judge.forget()
+    assert judge.summary() is None and judge.judged_wall() is None and judge.due(0.0)
+
+
+def test_a_scene_reload_makes_the_twin_restart_from_it() -> None:
+    inbox = TwinInbox()
+    assert not inbox.state_arrived(state(5.0, 0.0))
+    assert not inbox.take().resync_due
+    assert not inbox.state_arrived(state(5.1, 0.0))  # time went on: no restart due
+    assert not inbox.take().resync_due
+    assert inbox.state_arrived(state(0.2, 0.0))  # back to the start: a reset or a fault's reload
+    assert inbox.take().resync_due
+
+
+def test_a_send_whose_done_event_came_without_its_running_one_is_not_replayed() -> None:
+    """A lost `running` event: the `done` event alone says the robot has started (and ended) it."""
+    inbox = TwinInbox()
+    inbox.sent(Sent(RweParams(duration=0.5), 100.0, lambda: True))
+    inbox.sent(Sent(RweParams(duration=0.5), 101.0, lambda: True))
+    assert [s.sent_wall for s in inbox.take().sent] == [100.0, 101.0]
+    inbox.command_event({"id": 7, "status": "done", "params": {"sent_at": 100.0}})
+    assert [s.sent_wall for s in inbox.take().sent] == [101.0]
+
+
+def test_the_commanded_marker_is_solid_or_an_outline_never_both() -> None:
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        marker = CommandedMarker(server.scene)
+        target = (np.array([0.4, 0.0, 0.3]), np.array([0.0, 1.0, 0.0, 0.0]))
+        marker.show(target, resolved=False)
+        assert marker.outline.frame.visible and not marker.solid.frame.visible
+        marker.show(target, resolved=True)  # the robot said where it resolved it
+        assert marker.solid.frame.visible and not marker.outline.frame.visible
+        marker.show(None, resolved=True)
+        assert not marker.solid.frame.visible and not marker.outline.frame.visible
+    finally:
+        server.stop()
