@@ -78,3 +78,31 @@ def test_the_commanded_marker_is_solid_or_an_outline_never_both() -> None:
         assert not marker.solid.frame.visible and not marker.outline.frame.visible
     finally:
         server.stop()
+
+
+def test_a_stale_picture_greys_every_mesh_and_a_fresh_one_gives_the_colours_back() -> None:
+    from robot_sim.geometry import scene_geometry
+    from robot_sim.sim import Simulation
+    from server.models import GeometryModel
+    from web.arm_bodies import STALE_GREY, ArmBodies
+
+    sim = Simulation("surface")
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        arm = ArmBodies(server.scene)
+        arm.load(GeometryModel(scene="surface", **scene_geometry(sim.model, sim.data)))
+        own = [tuple(handle.color) for handle, _ in arm._meshes]
+        assert own and any(color != STALE_GREY for color in own)
+        arm.set_stale(True, "STALE")
+        assert all(tuple(handle.color) == STALE_GREY for handle, _ in arm._meshes)
+        arm.set_stale(False, "STALE")
+        assert [tuple(handle.color) for handle, _ in arm._meshes] == own
+    finally:
+        server.stop()
+
+
+def test_the_replay_slider_ends_on_its_step_at_or_before_the_recordings_end() -> None:
+    from web.replay_timeline import slider_end
+
+    assert slider_end(12.349) == pytest.approx(12.34)  # rounding would seek past the end
+    assert slider_end(12.34) == pytest.approx(12.34) and slider_end(0.004) == 0.0
