@@ -1,6 +1,7 @@
-"""The ground twin's parts on their own (web/twin_judge.py, web/twin_inbox.py) and the commanded
-marker pair: the rules a full twin run only shows blurred (issue 28's mutation pass found each
-of these unguarded)."""
+"""The console's small parts on their own: the ground twin's judge and inbox
+(web/twin_judge.py, web/twin_inbox.py), the commanded marker pair, the arm's stale grey, the
+replay slider's end and the control line: rules a whole-console run only shows blurred (issue
+28's mutation pass found each of these unguarded)."""
 
 import numpy as np
 import pytest
@@ -106,3 +107,41 @@ def test_the_replay_slider_ends_on_its_step_at_or_before_the_recordings_end() ->
 
     assert slider_end(12.349) == pytest.approx(12.34)  # rounding would seek past the end
     assert slider_end(12.34) == pytest.approx(12.34) and slider_end(0.004) == 0.0
+
+
+def test_take_control_is_offered_only_to_a_browser_without_control() -> None:
+    from web.control_line import ControlLine
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        line = ControlLine(server.gui, order=1.0)
+        line.show(mine=False, holder="operator 2")
+        assert line.take_control.visible and not line.mine
+        line.show(mine=True, holder="operator 1")
+        assert not line.take_control.visible and line.mine
+    finally:
+        server.stop()
+
+
+def test_a_paused_replay_fills_its_plots_once_the_recording_is_read() -> None:
+    """Paused, nothing else would come to draw them; playing, the telemetry does."""
+    from types import SimpleNamespace
+    from typing import Any, cast
+
+    from web.replay_plots import ReplayPlots
+
+    drawn: list[tuple[str, Any]] = []
+    plots = SimpleNamespace(
+        window_s=10.0,
+        set_thresholds=lambda thresholds: drawn.append(("thresholds", thresholds)),
+        jump=lambda samples, marks_s: drawn.append(("samples", samples)),
+    )
+    record = SimpleNamespace(
+        window=lambda at_s, span_s: SimpleNamespace(
+            thresholds=(25.0, 2.5), samples=[at_s, span_s], marks_s=[]
+        )
+    )
+    ReplayPlots(cast(Any, plots)).read(cast(Any, record), paused_at_s=None)
+    assert drawn == []
+    ReplayPlots(cast(Any, plots)).read(cast(Any, record), paused_at_s=3.0)
+    assert drawn == [("thresholds", (25.0, 2.5)), ("samples", [3.0, 10.0])]
