@@ -460,7 +460,9 @@ def prediction(page, key: str) -> str:  # type: ignore[no-untyped-def]
 def test_the_ghost_moves_on_send_and_says_how_far_off_it_was(browser, stack, calm) -> None:  # type: ignore[no-untyped-def]
     """Issue 14's predictive display behind a 1 s + 1 s link: on Send the cyan ghost (the ground
     twin) moves at once, while the delayed robot has not; when telemetry catches up the twin's
-    line says its predictions were within 2 mm."""
+    line says its predictions were within 2 mm, unless the ghost said meanwhile that it was
+    unsure (issue 27: a twin thread starved by a busy machine lags, says UNSURE, and its readout
+    covers that period too). A ghost that stayed sure must have been right."""
     _, link, console = stack
     set_link(link, uplink=1.0, downlink=1.0)
     page = open_console(browser, console.url)
@@ -471,6 +473,10 @@ def test_the_ghost_moves_on_send_and_says_how_far_off_it_was(browser, stack, cal
     page.get_by_role("option", name="base").click()
     set_fields(page, "Translation [mm]", 0, 40, 0)
     y0_mm = port_mm(page)[1]
+    page.evaluate(  # every 50 ms from here: was the ghost marked unsure?
+        "window.unsureSeen = 0; setInterval(() => { if (document.querySelector('#ptwl-prediction')"
+        "?.dataset.sure === '0') window.unsureSeen++; }, 50)"
+    )
     send(page, "Send cmd")
     page.wait_for_function(
         f"Number(document.querySelector('#ptwl-prediction').dataset.y) > {y0_mm + 5}", timeout=1500
@@ -482,7 +488,9 @@ def test_the_ghost_moves_on_send_and_says_how_far_off_it_was(browser, stack, cal
         timeout=15e3,
     )
     page.wait_for_timeout(500)
-    assert prediction(page, "max-mm") != "" and float(prediction(page, "max-mm")) < 2.0
+    max_mm = prediction(page, "max-mm")
+    assert max_mm != ""
+    assert float(max_mm) < 2.0 or page.evaluate("window.unsureSeen") > 0, max_mm
     page.close()
 
 
