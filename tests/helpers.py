@@ -76,10 +76,11 @@ def ten_seeds(task: str) -> list[dict[str, Any]]:
 LIBRARY_POOL_THREADS = ("AnyIO worker thread",)
 
 
-def threads_started_since(before: set[int | None]) -> list[str]:
-    """The names of live threads started since `before` (their idents), library pools aside."""
+def threads_started_since(before: set[threading.Thread]) -> list[str]:
+    """The names of live threads not in `before` (threading.enumerate() then: the objects, as an
+    ident is reused once its thread ends), library pools aside."""
     return [
         t.name
         for t in threading.enumerate()
-        if t.ident not in before and t.is_alive() and not t.name.startswith(LIBRARY_POOL_THREADS)
+        if t not in before and t.is_alive() and not t.name.startswith(LIBRARY_POOL_THREADS)
     ]

@@ -260,7 +260,7 @@ def test_only_the_seat_holder_sends_and_the_record_says_who(
 def test_close_stops_every_thread(server: ServiceProcess) -> None:
     """Not the app's own count only: every thread started meanwhile (the console's loops, its
     errands, viser's, the launcher's output reader) is gone once the console and the link stop."""
-    before = {thread.ident for thread in threading.enumerate()}
+    before = set(threading.enumerate())
     with running_proxy(server.url) as link:
         app = ConsoleApp(link.url, port=free_port())
         app.connect(timeout=30.0)

@@ -141,7 +141,22 @@ def test_a_paused_replay_fills_its_plots_once_the_recording_is_read() -> None:
             thresholds=(25.0, 2.5), samples=[at_s, span_s], marks_s=[]
         )
     )
-    ReplayPlots(cast(Any, plots)).read(cast(Any, record), paused_at_s=None)
+    ReplayPlots(cast(Any, plots)).read(cast(Any, record), lambda: None)
     assert drawn == []
-    ReplayPlots(cast(Any, plots)).read(cast(Any, record), paused_at_s=3.0)
+    ReplayPlots(cast(Any, plots)).read(cast(Any, record), lambda: 3.0)
     assert drawn == [("thresholds", (25.0, 2.5)), ("samples", [3.0, 10.0])]
+
+
+def test_playback_asks_the_playhead_paused_or_playing() -> None:
+    from typing import Any, cast
+
+    from web.playback import Playback
+
+    class Status:
+        status: dict[str, Any]
+
+    at = Status()
+    at.status = {"playing": False, "position_s": 4.25}
+    assert Playback._paused_at_s(cast(Any, at)) == 4.25
+    at.status = {"playing": True, "position_s": 4.25}
+    assert Playback._paused_at_s(cast(Any, at)) is None

@@ -473,7 +473,10 @@ def test_the_ghost_moves_on_send_and_says_how_far_off_it_was(browser, stack, cal
     page.get_by_role("option", name="base").click()
     set_fields(page, "Translation [mm]", 0, 40, 0)
     y0_mm = port_mm(page)[1]
-    page.evaluate(  # every 50 ms from here: was the ghost marked unsure?
+    # Judged and sure before the move (a fresh ghost is unsure for a round trip: "not judged yet");
+    # from then on, every 50 ms: was it marked unsure?
+    page.wait_for_function("document.querySelector('#ptwl-prediction')?.dataset.sure === '1'", timeout=30e3)
+    page.evaluate(
         "window.unsureSeen = 0; setInterval(() => { if (document.querySelector('#ptwl-prediction')"
         "?.dataset.sure === '0') window.unsureSeen++; }, 50)"
     )

@@ -46,7 +46,7 @@ def test_a_command_is_checked_and_queued_on_the_simulation_thread(
 
 def test_the_server_in_process_leaves_no_thread_behind(tmp_path: Path) -> None:
     """Its simulation thread (and the recording's, when recording) stop and join with the app."""
-    before = {thread.ident for thread in threading.enumerate()}
+    before = set(threading.enumerate())
     record = tmp_path / "session.mcap"
     app = create_app(
         ServerConfig(scene="surface", data_dir=tmp_path, allow_hosts=("testserver",), record=record)

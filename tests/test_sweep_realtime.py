@@ -36,6 +36,8 @@ def test_realtime_runs_one_plain_grid_point(tmp_path: Path) -> None:
         link_delays(SweepSettings("lid", [0.0, 1.0], 1, ["ground"], str(tmp_path)))
     with pytest.raises(NotOneGridPoint, match="leave out --jitter"):
         link_delays(SweepSettings("lid", [1.0], 1, ["ground"], str(tmp_path), jitter_s=0.1))
+    with pytest.raises(NotOneGridPoint, match="--max-age"):  # its task time counts only what ran
+        link_delays(SweepSettings("lid", [1.0], 1, ["ground"], str(tmp_path), max_age_s=3.0))
     assert link_delays(SweepSettings("lid", [1.0], 1, ["ground"], str(tmp_path))) == [
         "--uplink",
         "0.5",

@@ -259,3 +259,16 @@ def test_only_expiries_in_a_row_make_the_operator_give_up() -> None:
     assert operator.pending is not None
     operator.on_message(9.0, Done(operator.pending.tag, expired))  # the third in a row
     assert operator.finished and operator.end == "expired" and operator.unstarted == 5
+
+
+def test_a_recorded_expired_command_ended_without_a_start(tmp_path: Path) -> None:
+    """As the server's record: exit expired, an end, no start (a replay marks only what ran)."""
+    from ptwl.recording.reader import read
+
+    path = tmp_path / "expired.mcap"
+    spec = TrialSpec("lid", "ground", rtt_s=4.0, jitter_s=0.0, loss=0.0, seed=1, think_s=2.0, max_age_s=1.0)
+    simulate(spec, record=path)
+    done = [e for e in read(path).values("/commands") if e["status"] == "done"]
+    assert [e["exit"] for e in done] == ["expired"] * UNSTARTED_MAX
+    assert all(e.get("started_at") is None and e["ended_at"] is not None for e in done)
+    assert "max_age" in done[0]["detail"]

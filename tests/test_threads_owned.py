@@ -28,7 +28,7 @@ from web.app import ConsoleApp
 
 @contextmanager
 def no_thread_left() -> Iterator[None]:
-    before = {thread.ident for thread in threading.enumerate()}
+    before = set(threading.enumerate())
     yield
     deadline = time.monotonic() + 5.0  # a joined thread is gone; this is slack for the check only
     while True:

@@ -84,9 +84,13 @@ class Playback(Worker):
             return
         if self._closed.is_set():
             return
-        status = self.status
-        self._plots.read(record, None if status["playing"] else float(status["position_s"]))
+        self._plots.read(record, self._paused_at_s)
         self.timeline.mark(record.commands, record.duration_s)
+
+    def _paused_at_s(self) -> float | None:
+        """[s] the playhead if paused; None while playing (the telemetry draws the plots)."""
+        status = self.status
+        return None if status["playing"] else float(status["position_s"])
 
     def put(self, **change: Any) -> dict[str, Any] | None:
         """The change made: the playhead as the replay answered (None if it did not: the next

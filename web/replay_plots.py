@@ -2,6 +2,7 @@
 after a seek, and at the start while paused, nothing else would come to draw them."""
 
 import threading
+from collections.abc import Callable
 
 from web.plots import WrenchPlots
 from web.replay_record import ReplayRecord
@@ -13,13 +14,15 @@ class ReplayPlots:
         self.record: ReplayRecord | None = None  # once the console has read the file
         self._lock = threading.RLock()  # filled by one seek (or the first read) at a time
 
-    def read(self, record: ReplayRecord, paused_at_s: float | None) -> None:
+    def read(self, record: ReplayRecord, paused_at_s: Callable[[], float | None]) -> None:
         """The recording is read: from now on a seek fills the plots (after this, never before);
-        paused, they show where the playhead stands."""
+        paused, they show where the playhead stands (`paused_at_s`: None while playing, asked
+        under the lock, so a seek meanwhile is not overwritten by an older position)."""
         with self._lock:
             self.record = record
-            if paused_at_s is not None:
-                self.fill(paused_at_s)
+            position_s = paused_at_s()
+            if position_s is not None:
+                self.fill(position_s)
 
     def fill(self, position_s: float) -> None:
         """The plots as they were at `position_s`, from the recording."""

@@ -125,8 +125,9 @@ def run_real(spec: TrialSpec, robot_url: str, link_url: str) -> dict[str, Any]:
     with RobotClient(robot_url) as direct:
         records = [c for c in direct.commands(limit=100) if (c.sender or "").startswith(prefix)]
         success = direct.task().success
-    starts = [c.started_at for c in records if c.started_at is not None]
-    ends = [c.ended_at for c in records if c.ended_at is not None]
+    ran = [c for c in records if c.started_at is not None]  # an expired command never started
+    starts = [c.started_at for c in ran if c.started_at is not None]
+    ends = [c.ended_at for c in ran if c.ended_at is not None]
     return {
         "seed": spec.seed,
         "success": success,
@@ -145,8 +146,10 @@ def link_delays(settings: SweepSettings) -> list[str]:
     the settings name more than one point or a link that is not plain."""
     if len(settings.rtts_s) != 1 or len(settings.operators) != 1:
         raise NotOneGridPoint("--realtime runs one grid point: give one --rtt and one --operator")
-    if settings.jitter_s or settings.loss or settings.profile:
-        raise NotOneGridPoint("--realtime runs a plain link: leave out --jitter, --loss and --profile")
+    if settings.jitter_s or settings.loss or settings.profile or settings.max_age_s is not None:
+        raise NotOneGridPoint(
+            "--realtime runs a plain link: leave out --jitter, --loss, --profile and --max-age"
+        )
     half = f"{settings.rtts_s[0] / 2.0:g}"
     return ["--uplink", half, "--downlink", half]
 

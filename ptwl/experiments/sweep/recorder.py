@@ -99,10 +99,11 @@ class TrialRecorder:
             "queued_at": self._queued_s[tag],  # a trial's times are its sim time [s]
             "sender": self._sender,
         }
-        if status != "queued":
+        ran = status == "running" or (done is not None and done.outcome.report is not None)
+        if ran:
             event["started_at"] = self._started_s.setdefault(tag, ns / 1e9)
-        if done is not None:
-            event.update(exit=done.outcome.exit, detail=done.outcome.detail)
+        if done is not None:  # one that never ran (expired) has an end and no start, as the server's
+            event.update(exit=done.outcome.exit, detail=done.outcome.detail, ended_at=ns / 1e9)
         if done is not None and done.outcome.report is not None:
             r = done.outcome.report
             event.update(
