@@ -8,6 +8,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -15,6 +16,7 @@ from typing import Any
 import pytest
 
 from ptwl.cli import main
+from ptwl.experiments.sweep.parent_watch import ParentWatch
 from ptwl.experiments.sweep.spec import SweepSettings
 from ptwl.experiments.sweep.sweep import OutDirectoryError, _check_directory, _write_json
 
@@ -152,17 +154,57 @@ def test_the_watcher_ends_a_worker_when_its_sweep_ends(when: str) -> None:
         sweep.kill()
         sweep.wait()
     code = (
-        "from ptwl.experiments.sweep import backends; "
-        f"backends._exit_when_gone({sweep.pid}); raise SystemExit(7)"
+        "from ptwl.experiments.sweep.parent_watch import ParentWatch; "
+        f"ParentWatch({sweep.pid}).wait(); raise SystemExit(7)"
     )
     worker = subprocess.Popen([sys.executable, "-c", code])
     try:
         if when == "while_it_waits":
             with pytest.raises(subprocess.TimeoutExpired):
-                worker.wait(timeout=2.0)  # it waits while the sweep lives (any time would do)
+                worker.wait(timeout=0.5)  # it waits while the sweep lives (any time would do)
             sweep.kill()  # not reaped until below: a zombie
         assert worker.wait(timeout=30.0) == 1  # 7: the watcher returned instead of ending it
     finally:
         worker.kill()
         sweep.kill()
         sweep.wait()
+
+
+@pytest.mark.parametrize("how", ["pidfd", "polling"])
+def test_a_stopped_watch_leaves_no_thread_and_its_process_lives_on(
+    how: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The watch on a sweep that lives on is stopped and joined, whichever way it waits (a
+    watch that ignored stop() would be a thread nobody owns)."""
+    if how == "polling":
+        monkeypatch.setattr(ParentWatch, "_pidfd", lambda self: None)
+    watch = ParentWatch(os.getppid()).start()
+    assert watch.alive
+    time.sleep(0.05)  # it is waiting now, not about to
+    watch.stop()
+    assert not watch.alive
+    assert [t for t in threading.enumerate() if t.name == "sweep-watch"] == []
+    watch.stop()  # twice is harmless
+
+
+def test_a_worker_that_watches_its_sweep_stops_the_watch_as_it_exits() -> None:
+    """A pool worker whose parent is not its sweep (the watcher's case): its watch thread runs,
+    and multiprocessing's exit (its finalizers, as a worker runs them) stops and joins it."""
+    sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    code = (
+        "import multiprocessing.util, threading\n"
+        "from ptwl.experiments.sweep import backends\n"
+        f"backends._worker_init({sleeper.pid})\n"
+        "names = lambda: sorted(t.name for t in threading.enumerate())\n"
+        "print(names())\n"
+        "multiprocessing.util._exit_function()\n"
+        "print(names())\n"
+    )
+    try:
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    finally:
+        sleeper.kill()
+        sleeper.wait()
+    assert done.returncode == 0, done.stderr
+    before, after = done.stdout.splitlines()
+    assert before == "['MainThread', 'sweep-watch']" and after == "['MainThread']"

@@ -4,22 +4,21 @@ of its settings (trial.run_trial), so both give the same rows; they come back as
 import ctypes
 import ctypes.util
 import importlib.util
+import multiprocessing.util
 import os
-import select
 import signal
 import sys
-import threading
 from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Any
 
 from ptwl_config import PtwlError
 
+from ptwl.experiments.sweep.parent_watch import ParentWatch
 from ptwl.experiments.sweep.spec import TrialSpec
 from ptwl.experiments.sweep.trial import run_trial
 
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
-PARENT_POLL_S = 0.5  # the portable watcher's period: how long a worker may outlive its sweep
 
 
 def _worker_init(sweep_pid: int) -> None:
@@ -31,7 +30,9 @@ def _worker_init(sweep_pid: int) -> None:
     if not _kill_me_with_parent() or os.getppid() != sweep_pid:
         # No prctl (not Linux), or the parent is not the sweep (a forkserver's child), or the
         # sweep died before prctl took hold (the parent is already init): watch the sweep itself.
-        threading.Thread(target=_exit_when_gone, args=(sweep_pid,), name="sweep-watch", daemon=True).start()
+        # Stopped and joined as the worker exits (multiprocessing runs its finalizers then).
+        watch = ParentWatch(sweep_pid).start()
+        multiprocessing.util.Finalize(None, watch.stop, exitpriority=10)
 
 
 def _kill_me_with_parent() -> bool:
@@ -43,28 +44,6 @@ def _kill_me_with_parent() -> bool:
         return bool(libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0) == 0)
     except (OSError, AttributeError):
         return False
-
-
-def _exit_when_gone(pid: int) -> None:
-    """Block until process `pid` has ended, then end this one (no cleanup: nobody reads it)."""
-    if hasattr(os, "pidfd_open"):
-        try:
-            fd = os.pidfd_open(pid)  # readable once the process ends; immune to pid reuse
-        except ProcessLookupError:
-            os._exit(1)
-        except OSError:
-            pass  # an old kernel: poll below
-        else:
-            select.select([fd], [], [])
-            os._exit(1)
-    while True:
-        try:
-            os.kill(pid, 0)
-        except ProcessLookupError:
-            os._exit(1)
-        except PermissionError:
-            pass  # it exists (a pid reused by another user's process is not told apart here)
-        threading.Event().wait(PARENT_POLL_S)
 
 
 def run_local(
