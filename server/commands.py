@@ -18,9 +18,11 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 from ptwl_config import PtwlError
 
+from ptwl.recording.topics import command_event
 from robot_sim.behaviors import BehaviorReport
 from robot_sim.command_book import CommandBook as Book
 from robot_sim.command_book import CommandRecord, Listener
@@ -124,6 +126,11 @@ def _write_atomically(path: Path, text: str) -> None:
         os.fsync(directory)
     finally:
         os.close(directory)
+
+
+def command_message(record: CommandRecord) -> dict[str, Any]:
+    """The record's command event (WS /api/telemetry, MCAP /commands): its status as an event."""
+    return command_event(status_model(record).model_dump())
 
 
 def status_model(record: CommandRecord) -> CommandStatus:

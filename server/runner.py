@@ -26,7 +26,7 @@ from robot_sim.scenes import get_scene
 from robot_sim.sim import Simulation
 from robot_sim.task_frames import TaskFrame
 from robot_sim.telemetry import frames_change_message, frames_message, state_fields
-from server.commands import CommandBook, status_model
+from server.commands import CommandBook, command_message
 from server.pacing import RealTimePacer
 
 BATCH_S = 0.002  # [s] sim time between inbox checks: bounds command start latency
@@ -221,11 +221,3 @@ class SimRunner:
 def command_event(record: CommandRecord) -> str:
     """The command event's text (command_message, as JSON)."""
     return json.dumps(command_message(record))
-
-
-def command_message(record: CommandRecord) -> dict[str, Any]:
-    """`{"type": "command", ...command}`; the command's own `type` (ptwl, rwe, dither) would
-    collide with the message type, so it travels as `behavior`."""
-    command = status_model(record).model_dump()
-    command["behavior"] = command.pop("type")
-    return {"type": "command", **command}

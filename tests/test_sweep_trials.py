@@ -272,3 +272,27 @@ def test_a_recorded_expired_command_ended_without_a_start(tmp_path: Path) -> Non
     assert [e["exit"] for e in done] == ["expired"] * UNSTARTED_MAX
     assert all(e.get("started_at") is None and e["ended_at"] is not None for e in done)
     assert "max_age" in done[0]["detail"]
+
+
+def test_a_recorded_trial_replays_as_the_virtual_robots_own_records(tmp_path: Path) -> None:
+    """One rule from record to event and back: every command a replay lists at the end is the
+    virtual robot's record as the server's API lists it (server.commands.status_model), but for
+    who sent it; each event was logged when its status changed, at the record's own times."""
+    from ptwl.recording.reader import read
+    from ptwl.recording.replay.timeline import Timeline
+    from server.commands import status_model
+
+    path = tmp_path / "trial.mcap"
+    spec = TrialSpec("lid", "ground", rtt_s=1.0, jitter_s=0.0, loss=0.0, seed=2, think_s=0.5)
+    trial = simulate(spec, record=path)
+    timeline = Timeline(path)
+    replayed = timeline.commands_at(timeline.end_ns)
+    robot = [status_model(r).model_dump() for r in trial.robot.submitted.values()]
+    assert len(replayed) == len(robot) >= 4
+    assert replayed == [{**r, "sender": "ground operator"} for r in robot]
+    # Each command's life in order, each event at its record's time on the trial's clock.
+    for record in robot:
+        events = [m for m in read(path).on("/commands") if m.value["id"] == record["id"]]
+        assert [m.value["status"] for m in events] == ["queued", "running", "done"]
+        times = [record["queued_at"], record["started_at"], record["ended_at"]]
+        assert [m.log_time_ns for m in events] == [round(t * 1e9) for t in times]

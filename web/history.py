@@ -19,6 +19,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any
 
+from ptwl.recording.topics import command_event
 from robot_sim.exit_severity import Severity, severity
 
 SEVERITY_COLORS = {  # Mantine's green, violet, orange and red (the phases are blue)
@@ -292,8 +293,8 @@ def _merge(into: _Folded, other: _Folded) -> None:
 
 
 def _apply_record(view: CommandView, record: dict[str, Any]) -> None:
-    """A record (GET /api/commands) names the command's type `type`; an event, `behavior`."""
-    _apply(view, {**record, "behavior": record["type"]})
+    """A record (GET /api/commands) as the event it would have been."""
+    _apply(view, command_event(record))
 
 
 def _apply(view: CommandView, message: dict[str, Any]) -> None:

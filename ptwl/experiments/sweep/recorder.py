@@ -1,6 +1,7 @@
 """`ptwl sweep --record`: one trial's MCAP, in the same topics as a live session's.
 
-Log times are the trial's simulated time in nanoseconds from its start. The robot's telemetry
+Log times are the trial's simulated time in nanoseconds from its start, and a command's own
+times are its sim seconds (the virtual robot's clock starts at 0). The robot's telemetry
 is taken at the server's default rate (50 Hz of sim time); each command's life (queued when its
 POST reached the robot, running, done) and each behavior it ran are recorded as the robot saw
 them; both directions of the link record every message's delay or drop. Recording only
@@ -8,19 +9,19 @@ watches: a trial's row is the same with or without it (a test holds it to that).
 """
 
 from pathlib import Path
-from typing import Any
 
 from latency.clock import SimulatedLink
 from latency.record import McapRecorder
-from ptwl.experiments.sweep.robot import Done, VirtualRobot
+from ptwl.experiments.sweep.robot import VirtualRobot
 from ptwl.experiments.sweep.spec import TrialSpec
 from ptwl.recording.writer import SessionRecorder, versions
-from robot_sim.executor import CommandParams
+from robot_sim.command_book import CommandRecord
 from robot_sim.geometry import moving_bodies, scene_geometry
+from robot_sim.policies.run import StepRecord
 from robot_sim.telemetry import frames_message, state_fields
+from server.commands import command_message
 
 TELEMETRY_PERIOD_S = 0.02  # the server's default telemetry rate, 50 Hz
-INSTANCE = "sweep"
 
 
 def _ns(t_s: float) -> int:
@@ -35,12 +36,6 @@ class TrialRecorder:
         self._robot = robot
         self._moving = moving_bodies(robot.sim.model)
         self._sender = f"{spec.operator} operator"
-        self._ids: dict[str, int] = {}  # tag -> command id (1, 2, ... in the order they reached the robot)
-        self._running: str | None = None
-        self._params: dict[str, CommandParams] = {}
-        self._queued_s: dict[str, float] = {}
-        self._started_s: dict[str, float] = {}
-        self._steps = 0
         self._next_state_s = 0.0
         self._seq = 0  # the state messages' sequence number, from 1, as the server's
         # Both directions of the link, on the trial's clock, into this file (closed by close()).
@@ -48,29 +43,12 @@ class TrialRecorder:
         sim = robot.sim
         self._out.geometry({"scene": sim.scene.name, **scene_geometry(sim.model, sim.data)}, 0)
         self._out.frames(frames_message(sim.frames), 0)  # a trial's frames are the scene's
+        robot.on_record, robot.on_step = self._command, self._step
+        self.observe()  # the robot as the trial starts, before any command reaches it
 
-    def observe(self, done: Done | None) -> None:
-        """After the robot's tick: record what changed (cheap when nothing did)."""
+    def observe(self) -> None:
+        """After the robot's tick: its telemetry when due (commands and steps come by the hooks)."""
         robot, now = self._robot, self._robot.sim.time
-        ns = _ns(now)
-        if len(robot.submitted) != len(self._ids):
-            for tag in robot.submitted:
-                if tag not in self._ids:
-                    self._ids[tag] = len(self._ids) + 1
-                    self._params[tag] = robot.submitted[tag].params
-                    self._queued_s[tag] = now
-                    self._command(tag, "queued", ns)
-        running = robot.running_tag
-        if running is not None and running != self._running:
-            self._command(running, "running", ns)
-        self._running = running
-        steps = robot.figures.steps
-        owner = done.tag if done is not None else running  # whose behavior just ended
-        while self._steps < len(steps):
-            self._out.step(self._ids[owner] if owner else 0, steps[self._steps].as_dict(), ns)
-            self._steps += 1
-        if done is not None:
-            self._command(done.tag, "done", ns, done)
         if now >= self._next_state_s:
             self._next_state_s += TELEMETRY_PERIOD_S
             self._seq += 1
@@ -78,40 +56,21 @@ class TrialRecorder:
                 "type": "state",
                 "seq": self._seq,
                 **state_fields(robot.sim, self._moving),
-                "active_command": self._ids.get(running) if running else None,
-                "instance": INSTANCE,
+                "active_command": running.id if (running := robot.book.running) else None,
+                "instance": robot.book.instance,  # as its command events'
             }
-            self._out.state(state, ns)
+            self._out.state(state, _ns(now))
 
     def close(self) -> None:
         self._out.close()
 
-    def _command(self, tag: str, status: str, ns: int, done: Done | None = None) -> None:
-        params = self._params[tag]
-        event: dict[str, Any] = {
-            "type": "command",
-            "id": self._ids[tag],
-            "instance": INSTANCE,
-            "behavior": params.type,
-            "status": status,
-            "exit": None,
-            "params": params.model_dump(),
-            "queued_at": self._queued_s[tag],  # a trial's times are its sim time [s]
-            "sender": self._sender,
-        }
-        ran = status == "running" or (done is not None and done.outcome.report is not None)
-        if ran:
-            event["started_at"] = self._started_s.setdefault(tag, ns / 1e9)
-        if done is not None:  # one that never ran (expired) has an end and no start, as the server's
-            event.update(exit=done.outcome.exit, detail=done.outcome.detail, ended_at=ns / 1e9)
-        if done is not None and done.outcome.report is not None:
-            r = done.outcome.report
-            event.update(
-                ended_at=r.ended_at,
-                duration=r.duration,
-                peak_force=r.peak_force,
-                peak_torque=r.peak_torque,
-                final_wrench=list(r.final_wrench),
-                final_port=r.final_port.as_dict(),
-            )
-        self._out.command(event, ns)
+    def _command(self, record: CommandRecord) -> None:
+        """A command's status changed on the robot: its event, as the server sends it (the one
+        rule, server.commands.command_message), logged at the robot's time. The record's sender
+        is the operator's tag for the command (how the virtual robot knows it again); the
+        recording names who sent it, as a live session's does."""
+        event = {**command_message(record), "sender": self._sender}
+        self._out.command(event, _ns(self._robot.sim.time))
+
+    def _step(self, command_id: int, step: StepRecord) -> None:
+        self._out.step(command_id, step.as_dict(), _ns(self._robot.sim.time))

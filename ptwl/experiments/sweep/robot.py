@@ -8,6 +8,7 @@ It speaks the messages of the real API, as Python objects: a POST of a command (
 its acceptance), a GET of a command's status, and a command event when one ends.
 """
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from robot_sim.behaviors import BehaviorReport
@@ -18,8 +19,10 @@ from robot_sim.limits import COMMAND_HISTORY_MAX, COMMAND_QUEUE_MAX
 from robot_sim.policies.run import StepRecord
 from robot_sim.sim import Simulation
 
-# The trial's clock as Unix time (what `sent_at` and `max_age` are judged by): its t = 0.
-VIRTUAL_EPOCH_S = 1_700_000_000.0
+# The trial's clock as Unix time (what `sent_at` and `max_age` are judged by): its t = 0. Zero, so
+# that a record's times (queued_at, started_at, ended_at) are the trial's sim seconds, the clock
+# of its recording's log times (a replay lays commands on the timeline by them).
+VIRTUAL_EPOCH_S = 0.0
 
 
 @dataclass(frozen=True)
@@ -104,15 +107,26 @@ class VirtualRobot:
         self.book = CommandBook(
             COMMAND_QUEUE_MAX, COMMAND_HISTORY_MAX, self.unix_time_s, self._changed, instance="virtual"
         )
-        self.commands = CommandRunner(self.sim, self.book)
+        self.commands = CommandRunner(self.sim, self.book, self._step_ended)
         self.figures = Figures()
+        # A recording's hooks (ptwl/experiments/sweep/recorder.py), called as the server's are:
+        # every record's change as it happens, and every behavior's end by command id, before
+        # the end of the command it belongs to.
+        self.on_record: Callable[[CommandRecord], None] | None = None
+        self.on_step: Callable[[int, StepRecord], None] | None = None
         # Every command's record by its tag, in the order they arrived (the tag is its sender).
         self.submitted: dict[str, CommandRecord] = {}
         self._ended: list[CommandRecord] = []  # ended, not announced yet, in the order they ended
 
     def _changed(self, record: CommandRecord) -> None:
+        if self.on_record is not None:
+            self.on_record(record)
         if record.status == "done":  # run, or not: expired, dropped by STOP, refused at its start
             self._ended.append(record)
+
+    def _step_ended(self, command_id: int, step: StepRecord) -> None:
+        if self.on_step is not None:
+            self.on_step(command_id, step)
 
     @property
     def running_tag(self) -> str | None:

@@ -105,7 +105,7 @@ def simulate(spec: TrialSpec, profile: LinkProfile | None = None, record: Path |
         inbox.clear()
         if recorder is not None:
             done = robot.tick()
-            recorder.observe(done)
+            recorder.observe()
         else:
             done = robot.tick_until(quiet_until(link, operator))
         if done is not None:

@@ -20,7 +20,7 @@ from robot_sim.params import PtwlParams
 from robot_sim.sim import Simulation
 from robot_sim.task_frames import TaskFrames
 from robot_sim.telemetry import state_fields
-from server.runner import command_message
+from server.commands import command_message
 from web.twin import GroundTwin, Sent
 
 STATE_S = 0.02  # telemetry at 50 Hz

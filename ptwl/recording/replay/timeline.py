@@ -240,10 +240,8 @@ class Timeline:
         oldest first."""
         latest: dict[int, dict[str, Any]] = {}
         for event in self._commands[: int(np.searchsorted(self._command_ns, ns, side="right"))]:
-            record = {k: v for k, v in event.items() if k != "behavior"}
-            record["type"] = event["behavior"]  # the event names the command's type `behavior`
             latest.pop(event["id"], None)
-            latest[event["id"]] = record
+            latest[event["id"]] = topics.command_status(event)
         return sorted(latest.values(), key=lambda r: r["id"])
 
     # ------------------------------------------------------------------ the file
