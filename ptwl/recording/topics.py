@@ -44,22 +44,6 @@ COMMANDS = Topic(
     "/commands", "ptwl.Command", "every command event as the API sends it: parameters, sender, status, exit"
 )
 STEPS = Topic("/steps", "ptwl.Step", "every state-machine step as it ends: behavior, exit, figures")
-
-
-def command_event(status: dict[str, Any]) -> dict[str, Any]:
-    """A command's status (as GET /api/commands lists it) as its event, live and recorded:
-    `{"type": "command", ...}`. The command's own `type` (ptwl, rwe, dither) would collide with
-    the message's, so it travels as `behavior`. The one place for this rule, with its inverse."""
-    fields = {k: v for k, v in status.items() if k != "type"}
-    return {"type": "command", **fields, "behavior": status["type"]}
-
-
-def command_status(event: dict[str, Any]) -> dict[str, Any]:
-    """A command event as GET /api/commands listed the command then (command_event's inverse)."""
-    fields = {k: v for k, v in event.items() if k not in ("type", "behavior")}
-    return {**fields, "type": event["behavior"]}
-
-
 TELEMETRY = Topic("/ptwl/telemetry", "ptwl.Telemetry", "the telemetry state message, whole (replay reads it)")
 GEOMETRY = Topic("/ptwl/geometry", "ptwl.Geometry", "GET /api/geometry's answer on start and every reset")
 FRAMES = Topic(
@@ -190,3 +174,17 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
 
 def json_schema_bytes(name: str) -> bytes:
     return json.dumps(JSON_SCHEMAS[name]).encode()
+
+
+def command_event(status: dict[str, Any]) -> dict[str, Any]:
+    """A command's status (as GET /api/commands lists it) as its event, live and recorded:
+    `{"type": "command", ...}`. The command's own `type` (ptwl, rwe, dither) would collide with
+    the message's, so it travels as `behavior`. The one place for this rule, with its inverse."""
+    fields = {k: v for k, v in status.items() if k != "type"}
+    return {"type": "command", **fields, "behavior": status["type"]}
+
+
+def command_status(event: dict[str, Any]) -> dict[str, Any]:
+    """A command event as GET /api/commands listed the command then (command_event's inverse)."""
+    fields = {k: v for k, v in event.items() if k not in ("type", "behavior")}
+    return {**fields, "type": event["behavior"]}
