@@ -50,6 +50,6 @@ def report_from_json(fields: dict[str, Any], started_at_s: float, ended_at_s: fl
         peak_force=number_or_nan(fields.get("peak_force")),
         peak_torque=number_or_nan(fields.get("peak_torque")),
         final_wrench=tuple(float(v) for v in wrench),
-        final_port=Pose(tuple(port["position"]), tuple(port["quaternion"])),
+        final_port=Pose.of(port["position"], port["quaternion"]),
         detail=fields.get("detail") or "",
     )

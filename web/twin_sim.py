@@ -81,8 +81,7 @@ def point_from_state(state: dict[str, Any], frames: TaskFrames) -> TwinPoint:
 
 
 def _pose(message: dict[str, Any]) -> Pose:
-    p, q = message["position"], message["quaternion"]
-    return Pose((p[0], p[1], p[2]), (q[0], q[1], q[2], q[3]))
+    return Pose.of(message["position"], message["quaternion"])
 
 
 def remaining_ptwl(message: dict[str, Any], port: Pose, elapsed_s: float) -> PtwlParams | None:

@@ -7,6 +7,7 @@ after a wrench breach with `on_breach: limit`, where it is placed to hold the th
 """
 
 from abc import ABC, abstractmethod
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 
@@ -40,6 +41,13 @@ class Pose:
 
     position: tuple[float, float, float]
     quaternion: tuple[float, float, float, float]
+
+    @staticmethod
+    def of(position: Sequence[float] | np.ndarray, quaternion: Sequence[float] | np.ndarray) -> "Pose":
+        """From any three and four numbers (lists from JSON, arrays): the one conversion."""
+        x, y, z = (float(v) for v in position)
+        w, qx, qy, qz = (float(v) for v in quaternion)
+        return Pose((x, y, z), (w, qx, qy, qz))
 
     def as_dict(self) -> dict[str, list[float]]:
         return {"position": list(self.position), "quaternion": list(self.quaternion)}

@@ -101,8 +101,7 @@ class Ptwl(Behavior):
         self._arrived = False
 
     def goal_pose(self) -> Pose:
-        p, q = self.p_world_goal.tolist(), self.q_world_goal.tolist()
-        return Pose((p[0], p[1], p[2]), (q[0], q[1], q[2], q[3]))
+        return Pose.of(self.p_world_goal, self.q_world_goal)
 
     def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:
         p = self.params

@@ -54,8 +54,7 @@ async def add_frame(body: FrameRequest, runner: Runner) -> FrameModel:
     A scene holds at most 64 operators' frames (task_frames.MAX_OPERATOR_FRAMES; 409 past it)."""
     pose = None
     if not isinstance(body.pose, str):
-        p, q = body.pose.position, body.pose.quaternion
-        pose = Pose((p[0], p[1], p[2]), (q[0], q[1], q[2], q[3]))
+        pose = Pose.of(body.pose.position, body.pose.quaternion)
     try:
         frame = await on_sim_thread(runner, lambda: runner.add_frame(body.name, pose))
     except (FrameInUseError, FrameLimitError) as err:

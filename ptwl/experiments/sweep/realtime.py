@@ -107,9 +107,7 @@ def run_real(spec: TrialSpec, robot_url: str, link_url: str) -> dict[str, Any]:
     def now() -> float:
         return time.monotonic() - t0
 
-    x, y, z = port.position
-    w, qx, qy, qz = port.quaternion
-    carrier.send(operator.begin(0.0, Pose((x, y, z), (w, qx, qy, qz))))
+    carrier.send(operator.begin(0.0, Pose.of(port.position, port.quaternion)))
     while not operator.finished and now() < MAX_TRIAL_S:
         wake = operator.wake_at
         wait = 0.5 if wake is None else min(0.5, max(0.0, wake - now()))
