@@ -28,7 +28,7 @@ from web.desks import Desks
 from web.handshake import Catalog
 from web.known_frames import KnownFrames
 from web.playback import Playback
-from web.replay_api import ReplayApi, replay_status
+from web.replay_api import ReplayApi
 from web.robot_link import RobotLink
 from web.robot_view import RobotView
 from web.scene_keeper import SceneKeeper
@@ -101,12 +101,13 @@ class ConsoleApp:
         """Start the threads and meet the robot in the background (the panels and scene are up
         already); with `timeout`, wait that long for it (the scene drawn) or raise."""
         if self.replay:  # a replay's stand-in is local, never behind a link: asking costs nothing
-            replay = replay_status(self.link.robot_url, self.link.token)
+            api = ReplayApi(self.link.robot_url, self.link.token)
+            replay = api.get(timeout_s=5.0)
             if replay is None:
                 raise RuntimeError(f"{self.link.robot_url} is not a replay (GET /_replay did not answer)")
             self.playback = Playback(
                 self.server.gui,
-                ReplayApi(self.link.robot_url, self.link.token),
+                api,
                 replay,
                 self.log.replay_jumped,
                 self.board.plots,

@@ -28,8 +28,3 @@ class ReplayApi:
         except httpx.HTTPError:
             return None
         return response.json() if response.status_code == 200 else None
-
-
-def replay_status(robot_url: str, token: str | None) -> dict[str, Any] | None:
-    """The playhead if the robot is a replay, else None."""
-    return ReplayApi(robot_url, token).get(timeout_s=5.0)

@@ -126,6 +126,10 @@ class GroundTwin:
         return self.latest
 
     def _keep(self, sim_time: float, port_position: Any) -> None:
-        with self._lock:  # a state's arrival may forget the predictions meanwhile
+        """Called after every physics step: the lock only when one is due (every RECORD_S), and
+        then asked again under it (a state's arrival may have forgotten the predictions)."""
+        if not self._judge.due(sim_time):  # only this thread records
+            return
+        with self._lock:
             if self._judge.due(sim_time):
                 self._judge.record(sim_time, port_position.copy())

@@ -29,8 +29,10 @@ class PredictionJudge:
         self._errors.clear()
 
     def due(self, sim_time: float) -> bool:
-        """Is a prediction for `sim_time` to be kept (one every RECORD_S)?"""
-        return not self._times or sim_time >= self._times[-1] + RECORD_S
+        """Is a prediction for `sim_time` to be kept (one every RECORD_S)? Safe to ask without the
+        lock: the list read once, whole or emptied."""
+        last = self._times[-1:]
+        return not last or sim_time >= last[0] + RECORD_S
 
     def record(self, sim_time: float, port_position: np.ndarray) -> None:
         self._times.append(sim_time)
