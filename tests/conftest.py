@@ -8,6 +8,7 @@ import pytest
 
 from ptwl.launcher import ServiceProcess, running_console, running_proxy, running_server
 from server.client import RobotClient
+from tests.frame_cap import CappedBrowser
 from web.browser import chromium_available, launch
 
 
@@ -67,8 +68,9 @@ def stack() -> Iterator[tuple[ServiceProcess, ServiceProcess, ServiceProcess]]:
 
 @pytest.fixture(scope="module")
 def browser() -> Iterator[object]:
-    """Debian's Chromium under Playwright (never `playwright install`). Outside CI the browser
-    tests skip without it; under CI=true its absence fails."""
+    """Debian's Chromium under Playwright (never `playwright install`), its pages' drawing capped
+    (tests/frame_cap.py). Outside CI the browser tests skip without it; under CI=true its absence
+    fails."""
     if not chromium_available():
         if os.environ.get("CI") == "true":
             pytest.fail("CI=true but /usr/bin/chromium is missing: .ci/run must apt-get install chromium")
@@ -77,7 +79,7 @@ def browser() -> Iterator[object]:
 
     with sync_playwright() as playwright:
         chromium = launch(playwright)
-        yield chromium
+        yield CappedBrowser(chromium)
         chromium.close()
 
 

@@ -11,6 +11,7 @@ import pytest
 
 from ptwl.launcher import ServiceProcess, running_console, running_proxy, running_server
 from server.client import RobotClient
+from tests.console_page import until
 
 ATTACK_PAGE = """<!doctype html><html><body><script>
 window.results = {};
@@ -71,8 +72,10 @@ def attack(
         page = browser.new_page()  # type: ignore[attr-defined]
         try:
             page.goto(site.origin + "/")
-            page.wait_for_function(
-                "window.results.console && window.results.telemetry && window.results.stop", timeout=20_000
+            until(
+                page,
+                "window.results.console && window.results.telemetry && window.results.stop",
+                timeout=20_000,
             )
             results = page.evaluate("window.results")
             time.sleep(0.5)  # a STOP that got through would have ended the command by now

@@ -28,6 +28,7 @@ from tests.console_page import (
     reset,
     send,
     set_fields,
+    until,
     wait_status,
     wait_text,
 )
@@ -104,9 +105,7 @@ def test_two_second_round_trip_shows_intent_at_once_and_the_robot_later(browser,
     link = stack[1]
     page = open_console(browser, stack[2].url)
     httpx.put(link.url + "/_link/profile", json={"uplink": 1.0, "downlink": 1.0}).raise_for_status()
-    page.wait_for_function(
-        "Number(document.querySelector('#ptwl-telemetry')?.dataset.age) > 0.9", timeout=10_000
-    )
+    until(page, "Number(document.querySelector('#ptwl-telemetry')?.dataset.age) > 0.9", timeout=10_000)
     set_fields(page, "Translation [mm]", 0, 0, 10)  # tool z down: 10 mm down
     time.sleep(0.5)
     start = port_mm(page)
@@ -211,8 +210,10 @@ def test_ptwl_up_restarts_a_crashed_child_and_the_old_tab_carries_on(browser, tm
         pkill(f"console --robot http://127.0.0.1:{ports[1]} --port {ports[2]}")
         wait_line(lines, "the console is back", 120.0)
         seq = int(page.locator("#ptwl-telemetry").get_attribute("data-seq") or "0")
-        page.wait_for_function(
-            f"Number(document.querySelector('#ptwl-telemetry')?.dataset.seq) > {seq + 50}", timeout=30_000
+        until(
+            page,
+            f"Number(document.querySelector('#ptwl-telemetry')?.dataset.seq) > {seq + 50}",
+            timeout=30_000,
         )
         assert not page.locator("#ptwl-dead").is_visible()
         page.close()
@@ -253,7 +254,7 @@ def test_a_fresh_console_behind_a_3_s_link_shows_send_before_the_robot_answers(b
         page.get_by_role("button", name="Send cmd").wait_for(timeout=10_000)
         send_after = time.monotonic() - started
         # Behind the link for real: the robot's first state comes at least a downlink later.
-        page.wait_for_function("document.querySelector('#ptwl-telemetry')?.dataset.seq > 0", timeout=15_000)
+        until(page, "document.querySelector('#ptwl-telemetry')?.dataset.seq > 0", timeout=15_000)
         state_after = time.monotonic() - started
         page.close()
     # Send came before anything the robot sent could arrive: the panels did not wait for it. (The

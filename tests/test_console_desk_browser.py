@@ -10,7 +10,7 @@ import time
 import httpx
 import pytest
 
-from tests.console_page import open_consoles, send, set_fields, wait_status
+from tests.console_page import open_consoles, send, set_fields, until, wait_status
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
@@ -53,8 +53,8 @@ def test_taking_control_from_another_operator_asks_first(browser, stack) -> None
     assert control(holder)[0] == "1" and control(other)[0] == "0"  # cancelled: nothing taken
     other.get_by_role("button", name="Take control").click()
     other.get_by_role("button", name="Take control from them").click()
-    other.wait_for_function("document.querySelector('#ptwl-control')?.dataset.mine === '1'", timeout=5_000)
-    holder.wait_for_function("document.querySelector('#ptwl-control')?.dataset.mine === '0'", timeout=5_000)
+    until(other, "document.querySelector('#ptwl-control')?.dataset.mine === '1'", timeout=5_000)
+    until(holder, "document.querySelector('#ptwl-control')?.dataset.mine === '0'", timeout=5_000)
     assert holder.get_by_text("Control taken").count() >= 1  # the one who lost it is told
     holder.close()
     other.close()
@@ -70,22 +70,18 @@ def test_a_preview_says_computing_goes_stale_when_the_fields_change_and_clears_o
     set_fields(page, "Duration [s]", 1.0)
     page.evaluate(RECORD_PREVIEW)
     page.get_by_role("button", name="Preview").click()
-    page.wait_for_function(
-        "document.querySelector('#ptwl-preview')?.dataset.exit === 'goal_reached'", timeout=30_000
-    )
+    until(page, "document.querySelector('#ptwl-preview')?.dataset.exit === 'goal_reached'", timeout=30_000)
     assert preview_state(page) == ("", "goal_reached")
     seen = page.evaluate("window.ptwlPreview")
     assert seen[seen.index(["computing", ""]) + 1 :][-1] == ["", "goal_reached"]  # computing came first
     set_fields(page, "Duration [s]", 2.0)  # not what was previewed any more
-    page.wait_for_function(
-        "document.querySelector('#ptwl-preview')?.dataset.state === 'stale'", timeout=5_000
-    )
+    until(page, "document.querySelector('#ptwl-preview')?.dataset.state === 'stale'", timeout=5_000)
     assert "STALE" in page.locator("#ptwl-preview").inner_text()
     set_fields(page, "Duration [s]", 1.0)  # what was previewed again: no longer stale
-    page.wait_for_function("document.querySelector('#ptwl-preview')?.dataset.state === ''", timeout=5_000)
+    until(page, "document.querySelector('#ptwl-preview')?.dataset.state === ''", timeout=5_000)
     assert preview_state(page) == ("", "goal_reached")
     before = send(page, "Send cmd")
-    page.wait_for_function("document.querySelector('#ptwl-preview')?.dataset.exit === ''", timeout=5_000)
+    until(page, "document.querySelector('#ptwl-preview')?.dataset.exit === ''", timeout=5_000)
     assert "no preview" in page.locator("#ptwl-preview").inner_text()
     wait_status(page, "goal_reached", after=before)
     page.close()

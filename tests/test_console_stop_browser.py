@@ -11,7 +11,7 @@ import httpx
 import pytest
 
 from ptwl.launcher import ServiceProcess
-from tests.console_page import open_console
+from tests.console_page import open_console, until
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 BLACKOUT_S = 5.0
@@ -77,10 +77,10 @@ def test_a_stop_lost_in_a_blackout_is_in_view_in_red_and_retried_until_confirmed
         blackouts=[{"start": 0.0, "duration": BLACKOUT_S, "mode": "drop"}],
     )
     page.get_by_role("button", name="STOP").click()
-    page.wait_for_function("document.querySelector('#ptwl-stop')?.dataset.phase === 'failed'", timeout=5_000)
+    until(page, "document.querySelector('#ptwl-stop')?.dataset.phase === 'failed'", timeout=5_000)
     # Retried while the blackout lasts, each failure said and counted ...
     attempts_2 = "Number(document.querySelector('#ptwl-stop')?.dataset.attempts) >= 2"
-    page.wait_for_function(attempts_2, timeout=5_000)
+    until(page, attempts_2, timeout=5_000)
     text = page.locator("#ptwl-stop").inner_text()
     assert "NOT CONFIRMED (link dropped the request (blackout))" in text
     assert "the robot may still be moving" in text
@@ -92,20 +92,22 @@ def test_a_stop_lost_in_a_blackout_is_in_view_in_red_and_retried_until_confirmed
     assert stop_settles_at(page, y_before) == pytest.approx(y_before, abs=1.0)
     assert page.evaluate(IN_VIEW, "#ptwl-link")
     # The link line says what the stream shows, not what the transport says.
-    page.wait_for_function(
-        "document.querySelector('#ptwl-link')?.innerText.includes('no telemetry for')", timeout=5_000
-    )
+    until(page, "document.querySelector('#ptwl-link')?.innerText.includes('no telemetry for')", timeout=5_000)
     assert page.locator("#ptwl-link").get_attribute("data-level") == "stale"
     # After the blackout a retry gets through and the robot confirms it.
-    page.wait_for_function(
-        "document.querySelector('#ptwl-stop')?.dataset.phase === 'confirmed'", timeout=(BLACKOUT_S + 8) * 1000
+    until(
+        page,
+        "document.querySelector('#ptwl-stop')?.dataset.phase === 'confirmed'",
+        timeout=(BLACKOUT_S + 8) * 1000,
     )
     attempts = int(page.locator("#ptwl-stop").get_attribute("data-attempts") or "0")
     confirmed = page.locator("#ptwl-stop").inner_text()
     assert page.evaluate(IN_VIEW, "#ptwl-stop")
     assert stop_settles_at(page, y_before) == pytest.approx(y_before, abs=1.0)
-    page.wait_for_function(
-        "document.querySelector('#ptwl-link')?.innerText.includes('messages lost in a gap')", timeout=5_000
+    until(
+        page,
+        "document.querySelector('#ptwl-link')?.innerText.includes('messages lost in a gap')",
+        timeout=5_000,
     )
     page.close()
     set_link(link)

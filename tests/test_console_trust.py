@@ -20,6 +20,7 @@ from tests.console_page import (
     port_mm,
     send,
     set_fields,
+    until,
     view_hsv,
     wait_status,
 )
@@ -155,15 +156,11 @@ def test_a_queued_relative_command_is_drawn_relative_then_where_the_robot_resolv
     time.sleep(0.8)
     set_fields(page, "Translation [mm]", 0, -40, 0)
     send(page, "Send cmd")
-    page.wait_for_function(
-        f"document.querySelector('#ptwl-commanded')?.dataset.local === '{second}'", timeout=3e3
-    )
+    until(page, f"document.querySelector('#ptwl-commanded')?.dataset.local === '{second}'", timeout=3e3)
     assert commanded.get_attribute("data-resolved") == "0"
     assert "relative to the port at start" in commanded.inner_text()
     assert float(commanded.get_attribute("data-distance") or "nan") == pytest.approx(40.0, abs=15.0)
-    page.wait_for_function(
-        "document.querySelector('#ptwl-commanded')?.dataset.resolved === '1'", timeout=15_000
-    )
+    until(page, "document.querySelector('#ptwl-commanded')?.dataset.resolved === '1'", timeout=15_000)
     y_goal = float(commanded.inner_text().split("(")[1].split(",")[1])
     page.locator("#ptwl-no-commanded").wait_for(state="attached", timeout=15_000)  # the second is done
     assert page.locator("#ptwl-command").get_attribute("data-status") == "goal_reached"
@@ -179,13 +176,13 @@ def test_task_progress_and_success_show_in_the_bar(browser, stack, calm) -> None
     robot, _, console = stack
     httpx.post(robot.url + "/api/scene", json={"name": "surface"}).raise_for_status()
     page = open_console(browser, console.url)
-    page.wait_for_function("document.querySelector('#ptwl-task')?.dataset.success === '0'", timeout=10_000)
+    until(page, "document.querySelector('#ptwl-task')?.dataset.success === '0'", timeout=10_000)
     set_fields(page, "Translation [mm]", 0, 0, 60)  # tool z down: 22 mm into the plate
     set_fields(page, "Duration [s]", 3)
     set_fields(page, "Force threshold [N]", 12)
     before = send(page, "Send cmd")
     wait_status(page, "wrench_breach", timeout_s=20.0, after=before)
-    page.wait_for_function("document.querySelector('#ptwl-task')?.dataset.success === '1'", timeout=10_000)
+    until(page, "document.querySelector('#ptwl-task')?.dataset.success === '1'", timeout=10_000)
     # The bar shows the latest state at its tick: the one drawn as the breach's event came may
     # still be on the way up (8 N at 5 N's success); the press then holds.
     time.sleep(1.0)
@@ -210,12 +207,10 @@ def test_stop_shows_pending_until_the_robot_confirms(browser, stack, calm) -> No
     assert box is not None and box["y"] >= 0 and box["y"] + box["height"] <= 768  # on screen
     assert page.locator("#ptwl-telemetry").is_visible()
     stop.click(timeout=3_000)  # fails if anything covers it
-    page.wait_for_function("document.querySelector('#ptwl-stop')?.dataset.phase === 'pending'", timeout=1_000)
+    until(page, "document.querySelector('#ptwl-stop')?.dataset.phase === 'pending'", timeout=1_000)
     t0 = time.monotonic()
     assert "waiting for the robot" in page.locator("#ptwl-stop").inner_text()
-    page.wait_for_function(
-        "document.querySelector('#ptwl-stop')?.dataset.phase === 'confirmed'", timeout=10_000
-    )
+    until(page, "document.querySelector('#ptwl-stop')?.dataset.phase === 'confirmed'", timeout=10_000)
     confirmed_after = time.monotonic() - t0
     page.close()
     assert confirmed_after >= 2.0  # it waited for the round trip, and said so meanwhile
@@ -232,9 +227,7 @@ def test_a_stop_that_fails_stays_on_screen_and_a_dead_console_shows(browser) -> 
         page = open_console(browser, console.url, control=False)
         link.stop()
         page.get_by_role("button", name="STOP").click()
-        page.wait_for_function(
-            "document.querySelector('#ptwl-stop')?.dataset.phase === 'failed'", timeout=15_000
-        )
+        until(page, "document.querySelector('#ptwl-stop')?.dataset.phase === 'failed'", timeout=15_000)
         time.sleep(6.5)  # past the 6 s a notification lasts
         stop = page.locator("#ptwl-stop")
         assert stop.get_attribute("data-phase") == "failed" and stop.is_visible()
@@ -260,7 +253,7 @@ def test_plots_restart_with_the_scene_keep_a_minimum_range_and_mark_commands(bro
     noise filled the plot, and nothing showed the thresholds or when commands ran."""
     robot, _, console = stack
     page = open_console(browser, console.url)
-    page.wait_for_function("Number(document.querySelector('#ptwl-plot')?.dataset.t1) > 3", timeout=15_000)
+    until(page, "Number(document.querySelector('#ptwl-plot')?.dataset.t1) > 3", timeout=15_000)
     lo, hi = (float(v) for v in plot(page, "force-range").split(","))
     assert lo <= -5.0 and hi >= 5.0  # at rest: at least +-5 N, not noise stretched to full height
     assert plot(page, "threshold") == ""  # nothing running: no limit lines
@@ -269,18 +262,18 @@ def test_plots_restart_with_the_scene_keep_a_minimum_range_and_mark_commands(bro
     set_fields(page, "Duration [s]", 2.0)
     before = send(page, "Send cmd")
     wait_status(page, "running", after=before)
-    page.wait_for_function(
-        "document.querySelector('#ptwl-plot')?.dataset.threshold === '20.0'", timeout=5_000
-    )
+    until(page, "document.querySelector('#ptwl-plot')?.dataset.threshold === '20.0'", timeout=5_000)
     wait_status(page, "goal_reached", after=before)
-    page.wait_for_function(
-        f"Number(document.querySelector('#ptwl-plot')?.dataset.marks) === {marks_before + 2}", timeout=5_000
+    until(
+        page,
+        f"Number(document.querySelector('#ptwl-plot')?.dataset.marks) === {marks_before + 2}",
+        timeout=5_000,
     )
     assert plot(page, "threshold") == ""
     clears = int(plot(page, "clears"))
     httpx.post(robot.url + "/api/scene", json={"name": "free_space"}).raise_for_status()
-    page.wait_for_function(
-        f"Number(document.querySelector('#ptwl-plot')?.dataset.clears) === {clears + 1}", timeout=10_000
+    until(
+        page, f"Number(document.querySelector('#ptwl-plot')?.dataset.clears) === {clears + 1}", timeout=10_000
     )
     t0 = float(plot(page, "t0"))
     page.close()
@@ -306,7 +299,7 @@ def test_checks_before_send_and_defaults_that_do_not_bite(browser, stack, calm) 
     check = page.locator("#ptwl-check-ptwl")
     # Out of range: said at once, in the API's words, and Send is off.
     set_fields(page, "Force threshold [N]", 600)
-    page.wait_for_function("document.querySelector('#ptwl-check-ptwl')?.dataset.valid === '0'", timeout=5e3)
+    until(page, "document.querySelector('#ptwl-check-ptwl')?.dataset.valid === '0'", timeout=5e3)
     assert "force_threshold" in check.inner_text() and "500" in check.inner_text()
     assert page.get_by_role("button", name="Send cmd").is_disabled()
     before = command_id(page)
@@ -314,13 +307,13 @@ def test_checks_before_send_and_defaults_that_do_not_bite(browser, stack, calm) 
     page.wait_for_timeout(500)  # nothing goes out, so nothing is refused
     assert command_id(page) == before and page.get_by_text("Command refused").count() == 0
     set_fields(page, "Force threshold [N]", 20)
-    page.wait_for_function("document.querySelector('#ptwl-check-ptwl')?.dataset.valid === '1'", timeout=5e3)
+    until(page, "document.querySelector('#ptwl-check-ptwl')?.dataset.valid === '1'", timeout=5e3)
     assert page.get_by_role("button", name="Send cmd").is_enabled()
     # Escape (once the focus has left the fields) clears the target.
     set_fields(page, "Translation [mm]", 0, 0, -5)
     page.evaluate("document.activeElement.blur()")
     page.keyboard.press("Escape")
-    page.wait_for_function(CLEARED, timeout=5e3)
+    until(page, CLEARED, timeout=5e3)
     # Enter in a field sends the tab's command with what the fields show, once.
     with RobotClient(robot.url) as client:
         sent_before = len(client.commands(limit=100))
@@ -337,9 +330,7 @@ def test_checks_before_send_and_defaults_that_do_not_bite(browser, stack, calm) 
     # A fast approach: the robot's impact rule, before Send.
     set_fields(page, "Translation [mm]", 0, 0, -100)
     set_fields(page, "Duration [s]", 0.5)
-    page.wait_for_function(
-        "document.querySelector('#ptwl-check-ptwl')?.dataset.warnings === '1'", timeout=5e3
-    )
+    until(page, "document.querySelector('#ptwl-check-ptwl')?.dataset.warnings === '1'", timeout=5e3)
     assert "impact will pass it" in check.inner_text()
     # The watchdog follows the duration: a 9 s move is accepted and runs.
     set_fields(page, "Translation [mm]", 0, 0, -5)
@@ -365,14 +356,12 @@ def test_every_dither_field_and_the_gains_are_shown(browser, stack, calm) -> Non
     assert "τ (0.50, 0.50, 0.50) s" in preset.inner_text()
     inputs_for(page, "Stiffness preset (PTWL)").first.click()
     page.get_by_role("option", name="stiff").click()
-    page.wait_for_function(
-        "document.querySelector('#ptwl-preset')?.dataset.k !== '2000,2000,2000,100,100,100'"
-    )
+    until(page, "document.querySelector('#ptwl-preset')?.dataset.k !== '2000,2000,2000,100,100,100'")
     stiff_k = page.locator("#ptwl-preset").get_attribute("data-k")
     set_fields(page, "Translation [mm]", 0, 0, -5)
     before = send(page, "Send cmd")
     wait_status(page, "goal_reached", after=before)
-    page.wait_for_function(f"document.querySelector('#ptwl-gains')?.dataset.k === '{stiff_k}'", timeout=5e3)
+    until(page, f"document.querySelector('#ptwl-gains')?.dataset.k === '{stiff_k}'", timeout=5e3)
     page.get_by_role("tab", name="Dither").click()
     inputs_for(page, "Dither preset").first.click()
     page.get_by_role("option", name="translational_pull").click()
@@ -402,14 +391,14 @@ def test_a_tasks_state_machine_runs_from_its_tab_and_shows_each_step(browser, st
     assert "until the prongs drop in" in page.get_by_text("slide along y").inner_text()  # its procedure
     before = send(page, "Run state machine")
     wait_status(page, "running", after=before)
-    page.wait_for_function("document.querySelector('#ptwl-steps')?.dataset.count === '2'", timeout=30_000)
+    until(page, "document.querySelector('#ptwl-steps')?.dataset.count === '2'", timeout=30_000)
     wait_status(page, "completed", timeout_s=10.0, after=before)
     steps = page.locator("#ptwl-steps li")
     assert [steps.nth(i).get_attribute("data-behavior") for i in range(2)] == ["ptwl", "rwe"]
     assert [steps.nth(i).get_attribute("data-exit") for i in range(2)] == ["wrench_breach", "completed"]
     assert "find the outlet" in steps.nth(0).inner_text() and "fully in" in steps.nth(1).inner_text()
     # The watcher's page shows the same machine and steps.
-    watcher.wait_for_function("document.querySelector('#ptwl-steps')?.dataset.count === '2'", timeout=10_000)
+    until(watcher, "document.querySelector('#ptwl-steps')?.dataset.count === '2'", timeout=10_000)
     with RobotClient(robot.url) as client:
         record = client.commands(limit=1)[0]
     assert record.type == "state_machine" and record.exit == "completed" and record.sender
@@ -466,7 +455,7 @@ def test_the_ghost_moves_on_send_and_says_how_far_off_it_was(browser, stack, cal
     _, link, console = stack
     set_link(link, uplink=1.0, downlink=1.0)
     page = open_console(browser, console.url)
-    page.wait_for_function("document.querySelector('#ptwl-prediction')?.dataset.x !== ''", timeout=15e3)
+    until(page, "document.querySelector('#ptwl-prediction')?.dataset.x !== ''", timeout=15e3)
     above_the_bar = view_hsv(page)[:480]  # the status bar floats bottom right; its twin line is cyan too
     assert pixels_of_hue(above_the_bar, *CYAN_HUE, min_saturation=0.35) > 200  # the ghost is drawn
     inputs_for(page, "Frame").first.click()
@@ -475,17 +464,16 @@ def test_the_ghost_moves_on_send_and_says_how_far_off_it_was(browser, stack, cal
     y0_mm = port_mm(page)[1]
     # Judged and sure before the move (a fresh ghost is unsure for a round trip: "not judged yet");
     # from then on, every 50 ms: was it marked unsure?
-    page.wait_for_function("document.querySelector('#ptwl-prediction')?.dataset.sure === '1'", timeout=30e3)
+    until(page, "document.querySelector('#ptwl-prediction')?.dataset.sure === '1'", timeout=30e3)
     page.evaluate(
         "window.unsureSeen = 0; setInterval(() => { if (document.querySelector('#ptwl-prediction')"
         "?.dataset.sure === '0') window.unsureSeen++; }, 50)"
     )
     send(page, "Send cmd")
-    page.wait_for_function(
-        f"Number(document.querySelector('#ptwl-prediction').dataset.y) > {y0_mm + 5}", timeout=1500
-    )
+    until(page, f"Number(document.querySelector('#ptwl-prediction').dataset.y) > {y0_mm + 5}", timeout=1500)
     assert abs(port_mm(page)[1] - y0_mm) < 0.5  # the delayed picture has not moved yet
-    page.wait_for_function(
+    until(
+        page,
         f"(() => {{ const m = document.querySelector('#ptwl-telemetry').innerText"
         f".match(/port \\((-?[\\d.]+), (-?[\\d.]+)/); return m && Number(m[2]) > {y0_mm + 38}; }})()",
         timeout=15e3,
@@ -515,7 +503,7 @@ def test_task_frames_are_listed_drawn_made_and_commanded_in(browser, stack, calm
     httpx.post(robot.url + "/api/scene", json={"name": "surface"}).raise_for_status()
     page = open_console(browser, console.url)
     page.get_by_role("tab", name="Frames").click()
-    page.wait_for_function("document.querySelector('#ptwl-frames')?.dataset.names === 'plate_normal'")
+    until(page, "document.querySelector('#ptwl-frames')?.dataset.names === 'plate_normal'")
     page.wait_for_timeout(500)
     shown = red_pixels(page)
     page.get_by_text("Show frames in 3D").click()
@@ -531,7 +519,7 @@ def test_task_frames_are_listed_drawn_made_and_commanded_in(browser, stack, calm
     set_fields(page, "Typed rotation [deg]", 90, 0, 0)
     page.wait_for_timeout(200)
     page.get_by_role("button", name="Add typed pose").click()
-    page.wait_for_function("document.querySelector('#ptwl-frames')?.dataset.names === 'plate_normal,slanted'")
+    until(page, "document.querySelector('#ptwl-frames')?.dataset.names === 'plate_normal,slanted'")
     assert [f["name"] for f in httpx.get(robot.url + "/api/frames").json()] == ["plate_normal", "slanted"]
 
     page.get_by_role("tab", name="PTWL").click()
@@ -550,7 +538,7 @@ def test_task_frames_are_listed_drawn_made_and_commanded_in(browser, stack, calm
     inputs_for(page, "Delete frame").first.click()
     page.get_by_role("option", name="slanted").click()
     page.get_by_role("button", name="Delete").click()
-    page.wait_for_function("document.querySelector('#ptwl-frames')?.dataset.names === 'plate_normal'")
+    until(page, "document.querySelector('#ptwl-frames')?.dataset.names === 'plate_normal'")
     assert [f["name"] for f in httpx.get(robot.url + "/api/frames").json()] == ["plate_normal"]
     page.close()
 
@@ -566,7 +554,7 @@ def test_preview_then_send_a_step(browser, stack, calm) -> None:  # type: ignore
     page.wait_for_timeout(200)
     sent_before = len(httpx.get(robot.url + "/api/commands").json())
     page.get_by_role("button", name="Preview").click()
-    page.wait_for_function("document.querySelector('#ptwl-preview')?.dataset.exit === 'goal_reached'")
+    until(page, "document.querySelector('#ptwl-preview')?.dataset.exit === 'goal_reached'")
     preview = page.locator("#ptwl-preview")
     assert 2.0 < float(preview.get_attribute("data-duration") or "nan") < 3.5  # 2 s travel, then settling
     assert float(preview.get_attribute("data-compute-s") or "nan") < 1.0

@@ -24,7 +24,7 @@ from ptwl.recording import topics
 from ptwl.recording.reader import read
 from ptwl.recording.replay.timeline import Timeline
 from server.client import RobotClient
-from tests.console_page import _load, inputs_for, open_console, pixels_of_hue
+from tests.console_page import _load, inputs_for, open_console, pixels_of_hue, until
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
@@ -63,7 +63,7 @@ def test_the_force_plot_draws_a_25_n_jam_and_after_its_command_ends(browser, sur
     _, link, console = surface
     page = open_console(browser, console.url, control=False, viewport=(1366, 768))
     assert page.locator(".uplot canvas").count() == 2
-    page.wait_for_function("Number(document.querySelector('#ptwl-plot')?.dataset.t1) > 1", timeout=15_000)
+    until(page, "Number(document.querySelector('#ptwl-plot')?.dataset.t1) > 1", timeout=15_000)
     jam = {
         "type": "ptwl",
         "translation": [0.0, 0.0, GAP_TO_PLATE_M + PAST_PLATE_M],  # tool z points down
@@ -74,7 +74,8 @@ def test_the_force_plot_draws_a_25_n_jam_and_after_its_command_ends(browser, sur
         "sent_at": time.time(),
     }
     httpx.post(link.url + "/api/commands", json=jam, timeout=10.0).raise_for_status()
-    page.wait_for_function(
+    until(
+        page,
         "(() => { const el = document.querySelector('#ptwl-plot');"
         f" return el?.dataset.threshold === '{FORCE_THRESHOLD_N}' && Number(el.dataset.force) > 20; }})()",
         timeout=15_000,
@@ -92,7 +93,7 @@ def test_the_force_plot_draws_a_25_n_jam_and_after_its_command_ends(browser, sur
     assert min(in_contact.values()) > DRAWN_PX, in_contact
     # The command ends (STOP): the lines go, the traces stay.
     httpx.post(link.url + "/api/stop", timeout=10.0).raise_for_status()
-    page.wait_for_function("document.querySelector('#ptwl-plot')?.dataset.threshold === ''", timeout=10_000)
+    until(page, "document.querySelector('#ptwl-plot')?.dataset.threshold === ''", timeout=10_000)
     time.sleep(1.0)
     after = {
         "force z": canvas_pixels(page, 0, BLUE_DEG),
@@ -132,7 +133,8 @@ def seek(page, position_s: float, sim_time_at) -> float:  # type: ignore[no-unty
     at the state there. The time typed (to the slider's 0.01 s)."""
     typed = round(position_s, 2)
     inputs_for(page, "Time [s]").last.fill(f"{typed:.2f}")
-    page.wait_for_function(
+    until(
+        page,
         f"Math.abs(Number(document.querySelector('#ptwl-plot')?.dataset.t1) - {sim_time_at(typed)}) < 0.001",
         timeout=10_000,
     )
@@ -155,9 +157,7 @@ def test_replay_marks_its_commands_and_plots_after_seeks_while_paused(browser, j
         "replay", str(jam_recording), "--port", str(port), "--paused", health="/", startup_timeout=90.0
     ):
         page = _load(browser, f"http://127.0.0.1:{port}", (1366, 768))
-        page.wait_for_function(
-            "document.querySelector('#ptwl-replay-marks')?.dataset.count === '2'", timeout=60_000
-        )
+        until(page, "document.querySelector('#ptwl-replay-marks')?.dataset.count === '2'", timeout=60_000)
         strip = page.locator("#ptwl-replay-marks")
         starts = [float(v) for v in (strip.get_attribute("data-starts") or "").split(",")]
         ends = [float(v) for v in (strip.get_attribute("data-ends") or "").split(",")]
@@ -183,16 +183,10 @@ def test_replay_marks_its_commands_and_plots_after_seeks_while_paused(browser, j
 
         # Played through both commands' ends (the thresholds change twice, then go) to the end: drawn.
         page.get_by_role("button", name="Play").click()
-        page.wait_for_function(
-            "document.querySelector('#ptwl-plot')?.dataset.threshold === '40.0'", timeout=10_000
-        )
-        page.wait_for_function(
-            "document.querySelector('#ptwl-plot')?.dataset.threshold === ''", timeout=10_000
-        )
+        until(page, "document.querySelector('#ptwl-plot')?.dataset.threshold === '40.0'", timeout=10_000)
+        until(page, "document.querySelector('#ptwl-plot')?.dataset.threshold === ''", timeout=10_000)
         # The recording ends half a second later: there the replay stops by itself.
-        page.wait_for_function(
-            "document.querySelector('#ptwl-replay')?.dataset.playing === '0'", timeout=10_000
-        )
+        until(page, "document.querySelector('#ptwl-replay')?.dataset.playing === '0'", timeout=10_000)
         time.sleep(0.3)  # the next refresh
         played = {
             "force z": canvas_pixels(page, 0, BLUE_DEG),

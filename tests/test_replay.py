@@ -19,7 +19,7 @@ from ptwl.recording.reader import read
 from ptwl.recording.replay.player import Player
 from ptwl.recording.replay.timeline import Timeline
 from server.replay.app import KEEPALIVE_S, create_replay_app
-from tests.console_page import port_mm
+from tests.console_page import port_mm, until
 from tests.fake_clock import FakeClock
 
 SPEC = TrialSpec("quick_connect", "onboard", 0.0, 0.0, 0.0, 0, think_s=0.0)
@@ -173,10 +173,8 @@ def test_the_console_replays_a_recording_with_play_pause_and_seek(
     ) as replay:
         assert replay.url == f"http://127.0.0.1:{port}"  # the console, not its robot stand-in
         page = _load(browser, replay.url, (1100, 900))
-        page.wait_for_function(
-            "document.querySelector('#ptwl-replay')?.dataset.playing === '0'", timeout=60_000
-        )
-        page.wait_for_function("document.querySelector('#ptwl-telemetry')?.dataset.seq > 0", timeout=30_000)
+        until(page, "document.querySelector('#ptwl-replay')?.dataset.playing === '0'", timeout=60_000)
+        until(page, "document.querySelector('#ptwl-telemetry')?.dataset.seq > 0", timeout=30_000)
         # Watched, not commanded: no form, no control to take, no STOP.
         for button in ("Send cmd", "Take control", "STOP"):
             assert page.get_by_role("button", name=button).count() == 0, button
@@ -184,40 +182,31 @@ def test_the_console_replays_a_recording_with_play_pause_and_seek(
         assert port_mm(page) == pytest.approx([1000 * v for v in first["port"]["position"]], abs=0.11)
         # At the start the onboard operator's state machine has already started: at 0 link delay
         # it reached the robot and started in the first tick, and its events are logged then.
-        page.wait_for_function("document.querySelector('#ptwl-command')?.dataset.status === 'running'")
+        until(page, "document.querySelector('#ptwl-command')?.dataset.status === 'running'")
         assert "STATE_MACHINE #1: running by onboard operator" in page.locator("#ptwl-command").inner_text()
         # Seek to the end: the history is the recording's, with the machine's exit.
         slider = page.get_by_role("slider")
         slider.focus()
         slider.press("End")
-        page.wait_for_function(
-            "document.querySelector('#ptwl-command')?.dataset.status === 'completed'", timeout=20_000
-        )
+        until(page, "document.querySelector('#ptwl-command')?.dataset.status === 'completed'", timeout=20_000)
         last = timeline.telemetry.values[-1]
-        page.wait_for_function(
-            f"document.querySelector('#ptwl-telemetry')?.dataset.seq == {last['seq']}", timeout=20_000
+        until(
+            page, f"document.querySelector('#ptwl-telemetry')?.dataset.seq == {last['seq']}", timeout=20_000
         )
         assert port_mm(page) == pytest.approx([1000 * v for v in last["port"]["position"]], abs=0.11)
         # Back to the start and play: the playhead moves, the command appears when it was sent.
         slider.press("Home")
-        page.wait_for_function(
-            "document.querySelector('#ptwl-command')?.dataset.status !== 'completed'", timeout=20_000
-        )
+        until(page, "document.querySelector('#ptwl-command')?.dataset.status !== 'completed'", timeout=20_000)
         page.get_by_role("button", name="Play").click()
-        page.wait_for_function(
-            "document.querySelector('#ptwl-replay')?.dataset.playing === '1'", timeout=10_000
-        )
-        page.wait_for_function(
-            "Number(document.querySelector('#ptwl-replay')?.dataset.position) > 0.5", timeout=10_000
-        )
-        page.wait_for_function(
+        until(page, "document.querySelector('#ptwl-replay')?.dataset.playing === '1'", timeout=10_000)
+        until(page, "Number(document.querySelector('#ptwl-replay')?.dataset.position) > 0.5", timeout=10_000)
+        until(
+            page,
             "['running', 'completed'].includes(document.querySelector('#ptwl-command')?.dataset.status)",
             timeout=20_000,
         )
         page.get_by_role("button", name="Pause").click()
-        page.wait_for_function(
-            "document.querySelector('#ptwl-replay')?.dataset.playing === '0'", timeout=10_000
-        )
+        until(page, "document.querySelector('#ptwl-replay')?.dataset.playing === '0'", timeout=10_000)
         paused_at = float(page.locator("#ptwl-replay").get_attribute("data-position") or "nan")
         time.sleep(0.6)
         status = httpx.get(f"{robot_url(replay.output)}/_replay", timeout=5.0).json()

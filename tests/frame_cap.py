@@ -1,0 +1,57 @@
+"""The test browser draws the 3D view at most FRAME_CAP_HZ times a second.
+
+Measured on a 2-core machine (Debian Chromium, no GPU, WebGL in software): each frame of the
+console's view costs ~45 ms of CPU in Chromium's GPU process, and viser keeps drawing for 250 ms
+after every change to the scene, so while the arm moves the page draws as fast as that process
+can (~25 frames/s, ~95% of a core) whatever the telemetry rate. Capped at 10 frames/s the GPU
+process takes ~49%, at 1 frame/s ~5%. The browser tests read the view's mirror in the DOM and its
+pixels after waiting for them, never the frame rate, so they run capped; the frame rate itself
+is measured uncapped by `python -m bench.console`.
+
+The cap wraps the page's requestAnimationFrame (viser's render loop and its message drain both
+run on it). Playwright's own waits run in an isolated world, whose requestAnimationFrame this
+does not touch."""
+
+from typing import Any
+
+FRAME_CAP_HZ = 10
+
+CAP_SCRIPT = """{
+  const minIntervalMs = MIN_INTERVAL_MS;
+  const nativeRaf = window.requestAnimationFrame.bind(window);
+  let waiting = new Map();
+  let nextId = 1;
+  let timer = null;
+  let lastMs = -Infinity;
+  const flush = () => {
+    timer = null;
+    lastMs = performance.now();
+    nativeRaf((ts) => {
+      const due = waiting;
+      waiting = new Map();
+      due.forEach((cb) => cb(ts));
+    });
+  };
+  window.requestAnimationFrame = (cb) => {
+    const id = nextId++;
+    waiting.set(id, cb);
+    if (timer === null) timer = setTimeout(flush, Math.max(0, lastMs + minIntervalMs - performance.now()));
+    return id;
+  };
+  window.cancelAnimationFrame = (id) => { waiting.delete(id); };
+}""".replace("MIN_INTERVAL_MS", str(1000 // FRAME_CAP_HZ))
+
+
+class CappedBrowser:
+    """A Playwright Browser whose new pages draw at most FRAME_CAP_HZ frames a second."""
+
+    def __init__(self, browser: Any) -> None:
+        self._browser = browser
+
+    def new_page(self, **kwargs: Any) -> Any:
+        page = self._browser.new_page(**kwargs)
+        page.add_init_script(CAP_SCRIPT)
+        return page
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._browser, name)
