@@ -5,7 +5,9 @@ For each case: the twin's port error against the telemetry that later shows the 
 (max and p95 over every state judged, mm), and as the baseline the same states against the
 delayed picture an operator has without a twin (the port a round trip earlier), measured in the
 same run; `ratio` is twin max over delayed max. Also the twin's cost: wall seconds of one
-restart-and-run over a round trip (what each 0.5 s resync costs the console).
+restart-and-run over a round trip (what each 0.5 s resync costs the console), and of a 10 s
+preview (issue 14: "well under a second"), with as its baseline the same move run on a plain
+simulation in the same run (`ratio`: the preview's overhead over the physics and controller).
 
     python -m bench.twin
 """
@@ -14,11 +16,12 @@ import json
 import time
 
 from ptwl.experiments.twin.trial import contact_moves, free_space_moves, run_trial
-from robot_sim.behaviors import BehaviorParams
+from robot_sim.behaviors import BehaviorParams, behavior_for
 from robot_sim.params import PtwlParams
 from robot_sim.sim import Simulation
 from robot_sim.telemetry import state_fields
-from web.twin import GroundTwin
+from web.preview import Previewer
+from web.twin import GroundTwin, TwinPoint
 
 RTTS_S = (1.0, 3.0, 5.0)
 INSERTION: list[tuple[float, BehaviorParams]] = [
@@ -45,6 +48,40 @@ def restart_cost_s(rtt_s: float) -> float:
     return time.perf_counter() - t0
 
 
+PREVIEWED_MOVE = PtwlParams(translation=[0.05, -0.08, 0.03], frame="base", duration=10.0)
+REPEATS = 3
+
+
+def preview_cost_s() -> dict[str, float]:
+    """Wall seconds of a 10 s move's preview (best of REPEATS, its model already built), and of
+    the same move run on a plain simulation."""
+    robot = Simulation("free_space")
+    state = robot.state()
+    point = TwinPoint(
+        "free_space",
+        robot.time,
+        state.joint_positions,
+        state.attractor,
+        robot.controller.gains,
+        False,
+        robot.frames,
+    )
+    previewer = Previewer()
+    previewer.run(point, PtwlParams(duration=0.1))  # builds the scene's model once
+    preview_s = min(previewer.run(point, PREVIEWED_MOVE).compute_s for _ in range(REPEATS))
+    plain_s = float("inf")
+    for _ in range(REPEATS):
+        sim = Simulation("free_space")
+        t0 = time.perf_counter()
+        sim.run_behavior(behavior_for(PREVIEWED_MOVE))
+        plain_s = min(plain_s, time.perf_counter() - t0)
+    return {
+        "preview_s": round(preview_s, 3),
+        "plain_run_s": round(plain_s, 3),
+        "ratio": round(preview_s / plain_s, 2),
+    }
+
+
 def main() -> None:
     out: dict[str, object] = {}
     for name, (scene, seed, moves, seconds) in CASES.items():
@@ -60,6 +97,7 @@ def main() -> None:
             }
         out[name] = rows
     out["restart_cost_s"] = {f"{rtt:g}s": round(restart_cost_s(rtt), 3) for rtt in RTTS_S}
+    out["preview_10s_move"] = preview_cost_s()
     print(json.dumps(out))
 
 

@@ -17,7 +17,14 @@ from latency.clock import SimulatedLink
 from latency.profile import LinkProfile
 from ptwl.launcher import ServiceProcess, running_proxy, running_server
 
-HOLD_TOLERANCE_S = 0.005
+# The link releases each message on its own timer: the median release is within 1 ms of its
+# due time (a link that waits for a tick or the next arrival is late on most messages and fails
+# that). The tail is the host's: alone on an idle 2-core machine 99 % are within 5 ms (`python -m
+# bench.link` measures it), but in a suite that runs two tests at once the whole proxy process
+# sometimes waits 10-25 ms for a core (measured: p99 12 ms and 24 ms), so the tail is bounded by
+# what such a machine does, with a margin.
+MEDIAN_TOLERANCE_S = 0.001
+TAIL_TOLERANCE_S = 0.05
 pytestmark = pytest.mark.usefixtures("no_gc_pauses")  # end-to-end timings are taken in this process
 
 
@@ -68,8 +75,8 @@ def read_record(path: Path) -> list[dict]:
 
 
 def check_record(records: list[dict], direction: str, n_min: int) -> list[dict]:
-    """Every message of `direction` released in order and never before it is due; 99 % of them
-    within 5 ms of it, the median within 1 ms.
+    """Every message of `direction` released in order and never before it is due; the median
+    within MEDIAN_TOLERANCE_S of it, 99 % within TAIL_TOLERANCE_S.
 
     Why a percentile for lateness: on a shared 2-core machine the whole proxy process is sometimes
     not scheduled for 10-50 ms (both directions go late at the same instant, with nothing else
@@ -91,11 +98,11 @@ def check_record(records: list[dict], direction: str, n_min: int) -> list[dict]:
 
 
 def assert_mostly_on_time(lateness_s: list[float]) -> None:
-    """Never early; the median within 1 ms and 99 % within HOLD_TOLERANCE_S (see check_record)."""
+    """Never early; the median within MEDIAN_TOLERANCE_S and 99 % within TAIL_TOLERANCE_S."""
     ordered = sorted(lateness_s)
     assert ordered[0] >= -1e-9, ordered[0]
-    assert ordered[len(ordered) // 2] <= 0.001
-    assert ordered[int(0.99 * len(ordered))] <= HOLD_TOLERANCE_S
+    assert ordered[len(ordered) // 2] <= MEDIAN_TOLERANCE_S
+    assert ordered[int(0.99 * len(ordered))] <= TAIL_TOLERANCE_S
 
 
 def test_one_second_each_way_200_messages_per_second(fast_server: ServiceProcess, tmp_path: Path) -> None:
@@ -122,7 +129,8 @@ def test_one_second_each_way_200_messages_per_second(fast_server: ServiceProcess
     for direction in ("uplink", "downlink"):
         s = stats[direction]
         assert s["early_releases"] == 0 and s["reorderings"] == 0
-        assert s["holding_error_s"]["p99"] <= HOLD_TOLERANCE_S
+        assert s["holding_error_s"]["p50"] <= MEDIAN_TOLERANCE_S
+        assert s["holding_error_s"]["p99"] <= TAIL_TOLERANCE_S
         assert s["realized_delay_s"]["p50"] == pytest.approx(1.0, abs=0.003)
 
 
@@ -144,7 +152,7 @@ def test_jitter_keeps_order_and_reports_realized_delay(fast_server: ServiceProce
     realized = stats["downlink"]["realized_delay_s"]
     # p99, not max: one host stall (see check_record) made a single release 21 ms late in a full
     # run; each release's lateness against its own drawn delay is checked there, message by message.
-    assert 1.0 < realized["p50"] < 1.3 and realized["p99"] <= 1.3 + HOLD_TOLERANCE_S
+    assert 1.0 < realized["p50"] < 1.3 and realized["p99"] <= 1.3 + TAIL_TOLERANCE_S
 
     # The same arrivals on a simulated clock with the same profile make the same schedule.
     sim = SimulatedLink(LinkProfile(uplink=1.0, downlink=1.0, jitter=jitter), start=records[0]["arrival"] - 1)

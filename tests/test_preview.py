@@ -1,6 +1,8 @@
 """Preview before Send (issue 14): a contemplated command run to its exit on a copy of the model
 from the twin's state, in well under a second for a 10 s command, matching what the robot does."""
 
+import time
+
 import numpy as np
 import pytest
 
@@ -30,8 +32,14 @@ def test_a_10_s_move_is_previewed_in_under_a_second_and_goes_where_the_robot_goe
     move = PtwlParams(translation=[0.05, -0.08, 0.03], frame="base", duration=10.0)
     previewer = Previewer()
     previewer.run(point(robot), PtwlParams(duration=0.1))  # the model is built once per scene
+    cpu0_s = time.thread_time()
     preview = previewer.run(point(robot), move)
-    assert preview.compute_s < 1.0
+    cpu_s = time.thread_time() - cpu0_s
+    # Under a second of computing, and the wall time it reports is that computing's. CPU time, not
+    # wall: beside other tests a busy machine made the same 0.2 s preview take 1.44 s of wall
+    # (the wall figure alone is `python -m bench.twin`'s `preview_10s_move`).
+    assert cpu_s < 1.0
+    assert preview.compute_s >= 0.9 * cpu_s
     report = robot.run_behavior(behavior_for(move))
     assert preview.exit == report.exit.value == "goal_reached"
     assert preview.duration_s == pytest.approx(report.duration, abs=0.05)
