@@ -24,7 +24,8 @@ PORT_TEXT = re.compile(r"port \((-?[\d.]+), (-?[\d.]+), (-?[\d.]+)\) mm")
 
 
 def until(page, predicate_js: str, timeout: float = 30_000):  # type: ignore[no-untyped-def]
-    """Wait until `predicate_js` is true in `page` (every POLL_MS, up to `timeout` ms)."""
+    """Wait until `predicate_js` is true in `page`, read every POLL_MS, for up to `timeout`
+    milliseconds (Playwright's own name and unit, which the callers pass on)."""
     return page.wait_for_function(predicate_js, timeout=timeout, polling=POLL_MS)
 
 

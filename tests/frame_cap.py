@@ -9,8 +9,9 @@ pixels after waiting for them, never the frame rate, so they run capped; the fra
 is measured uncapped by `python -m bench.console`.
 
 The cap wraps the page's requestAnimationFrame (viser's render loop and its message drain both
-run on it). Playwright's own waits run in an isolated world, whose requestAnimationFrame this
-does not touch."""
+run on it). Playwright's actionability checks run in an isolated world, which this does not
+touch; `wait_for_function` runs in the page's world but polls on a timer here (console_page.py's
+`until`), not on frames."""
 
 from typing import Any
 
@@ -23,13 +24,18 @@ CAP_SCRIPT = """{
   let nextId = 1;
   let timer = null;
   let lastMs = -Infinity;
+  let running = new Map();
   const flush = () => {
     timer = null;
     lastMs = performance.now();
     nativeRaf((ts) => {
-      const due = waiting;
+      running = waiting;
       waiting = new Map();
-      due.forEach((cb) => cb(ts));
+      for (const [id, cb] of running) {
+        if (!running.has(id)) continue;  // cancelled by a callback before it in this frame
+        try { cb(ts); } catch (err) { reportError(err); }  // one failure skips no other callback
+      }
+      running = new Map();
     });
   };
   window.requestAnimationFrame = (cb) => {
@@ -38,7 +44,7 @@ CAP_SCRIPT = """{
     if (timer === null) timer = setTimeout(flush, Math.max(0, lastMs + minIntervalMs - performance.now()));
     return id;
   };
-  window.cancelAnimationFrame = (id) => { waiting.delete(id); };
+  window.cancelAnimationFrame = (id) => { waiting.delete(id); running.delete(id); };
 }""".replace("MIN_INTERVAL_MS", str(1000 // FRAME_CAP_HZ))
 
 

@@ -25,6 +25,9 @@ from ptwl.launcher import ServiceProcess, running_proxy, running_server
 # what such a machine does, with a margin.
 MEDIAN_TOLERANCE_S = 0.001
 TAIL_TOLERANCE_S = 0.05
+# How long this test process may not be scheduled when it runs beside another test with a core
+# hogged (measured: 0.41 s), for timings taken here rather than in the link's record.
+HOST_STALL_S = 0.6
 pytestmark = pytest.mark.usefixtures("no_gc_pauses")  # end-to-end timings are taken in this process
 
 
@@ -82,27 +85,33 @@ def check_record(records: list[dict], direction: str, n_min: int) -> list[dict]:
     not scheduled for 10-50 ms (both directions go late at the same instant, with nothing else
     running); that is the host, not the link, and a per-message bound failed half the runs. A
     link that releases on the wrong timer (a tick, or the next arrival) is late on most
-    messages and fails the median and p99."""
+    messages against its own schedule (each message due at arrival + delay, never before the one
+    ahead of it is due) and fails the median. The tail is judged against the release ahead as it
+    really happened, so the messages queued behind one host stall count once, not all late."""
     rows = [r for r in records if r["direction"] == direction and r["kind"] == "ws" and r["release"]]
     assert len(rows) >= n_min
     assert [r["seq"] for r in rows] == sorted(r["seq"] for r in rows)  # FIFO
-    previous_release = float("-inf")
-    lateness = []
+    previous_release = previous_due = float("-inf")
+    behind_release, behind_schedule = [], []
     for r in rows:
-        scheduled = max(r["arrival"] + r["configured_delay"], previous_release)
+        due = max(r["arrival"] + r["configured_delay"], previous_due)
+        scheduled = max(due, previous_release)
         assert r["release"] >= scheduled, r  # never early
-        lateness.append(r["release"] - scheduled)
-        previous_release = r["release"]
-    assert_mostly_on_time(lateness)
+        behind_release.append(r["release"] - scheduled)
+        behind_schedule.append(r["release"] - due)
+        previous_release, previous_due = r["release"], due
+    assert_mostly_on_time(behind_release, behind_schedule)
     return rows
 
 
-def assert_mostly_on_time(lateness_s: list[float]) -> None:
-    """Never early; the median within MEDIAN_TOLERANCE_S and 99 % within TAIL_TOLERANCE_S."""
+def assert_mostly_on_time(lateness_s: list[float], schedule_lateness_s: list[float] | None = None) -> None:
+    """Never early; 99 % within TAIL_TOLERANCE_S; the median within MEDIAN_TOLERANCE_S of the
+    schedule (`schedule_lateness_s`, when the lateness is judged against the release ahead)."""
     ordered = sorted(lateness_s)
     assert ordered[0] >= -1e-9, ordered[0]
-    assert ordered[len(ordered) // 2] <= MEDIAN_TOLERANCE_S
     assert ordered[int(0.99 * len(ordered))] <= TAIL_TOLERANCE_S
+    on_schedule = sorted(lateness_s if schedule_lateness_s is None else schedule_lateness_s)
+    assert on_schedule[len(on_schedule) // 2] <= MEDIAN_TOLERANCE_S
 
 
 def test_one_second_each_way_200_messages_per_second(fast_server: ServiceProcess, tmp_path: Path) -> None:
@@ -180,15 +189,21 @@ def test_http_round_trip_takes_uplink_plus_downlink_and_control_is_immediate(
         # at +55.6 ms). What is timed is the link: +4-8 ms over the 1.5 s here.
         httpx.Client(base_url=proxy.url) as client,
     ):
+        # Each round trip is never short of uplink + downlink and within a host stall of it (one
+        # took 1.91 s with a core hogged and two tests at once); the best of three is within 50 ms.
+        elapsed = []
         for _ in range(3):
             t0 = time.monotonic()
             response = client.get("/api/health")
-            elapsed = time.monotonic() - t0
+            elapsed.append(time.monotonic() - t0)
             assert response.status_code == 200 and response.json()["status"] == "ok"
-            assert 1.5 <= elapsed <= 1.5 + 0.05
-        t0 = time.monotonic()
-        profile = client.get("/_link/profile").json()
-        assert time.monotonic() - t0 < 0.05
+        assert all(1.5 <= e <= 1.5 + HOST_STALL_S for e in elapsed) and min(elapsed) <= 1.5 + 0.05, elapsed
+        control = []
+        for _ in range(3):
+            t0 = time.monotonic()
+            profile = client.get("/_link/profile").json()
+            control.append(time.monotonic() - t0)
+        assert min(control) < 0.05 and max(control) < HOST_STALL_S, control
         assert profile["uplink"] == 0.6 and profile["downlink"] == 0.9 and profile["version"] == 1
         posted = httpx.post(proxy.url + "/api/commands", json={"type": "rwe", "duration": 0.1}, timeout=10)
         assert posted.status_code == 202  # bodies and methods pass through
@@ -204,9 +219,12 @@ def test_blackout_hold_and_drop_live(fast_server: ServiceProcess) -> None:
         received = asyncio.run(exchange(proxy.url, seconds=3.5, send_hz=1.0))
         states = [(t - t_put, m) for t, m in received if m["type"] == "state"]
         assert all(b["seq"] - a["seq"] == 1 for (_, a), (_, b) in itertools.pairwise(states))  # all, in order
-        in_window = [t for t, _ in states if 1.15 < t < 2.05]
+        # Arrival times are this process's: a host stall makes them late (never early), so the
+        # window starts a stall after the last message before the loss of signal is due (1.1 s;
+        # one arrived at 1.17 s with a core hogged) and the held burst may come a stall late.
+        in_window = [t for t, _ in states if 1.1 + HOST_STALL_S / 2 < t < 2.05]
         assert not in_window  # nothing arrives during the loss of signal...
-        burst = [t for t, _ in states if 2.05 <= t < 2.2]
+        burst = [t for t, _ in states if 2.05 <= t < 2.2 + HOST_STALL_S / 2]
         assert len(burst) >= 150  # ...then the held second of telemetry arrives at once
 
         drop = {"blackouts": [{"start": 0.5, "duration": 1.0, "mode": "drop"}]}

@@ -10,6 +10,7 @@ from robot_sim.behaviors import ExitCondition, behavior_for
 from robot_sim.params import PtwlParams
 from robot_sim.sim import Simulation
 from robot_sim.task_frames import TaskFrame, unit_quaternion
+from tests.helpers import PREVIEW_WALL_BOUND_S
 from web.preview import Previewer
 from web.twin import TwinPoint
 
@@ -35,11 +36,11 @@ def test_a_10_s_move_is_previewed_in_under_a_second_and_goes_where_the_robot_goe
     cpu0_s = time.thread_time()
     preview = previewer.run(point(robot), move)
     cpu_s = time.thread_time() - cpu0_s
-    # Under a second of computing, and the wall time it reports is that computing's. CPU time, not
-    # wall: beside other tests a busy machine made the same 0.2 s preview take 1.44 s of wall
-    # (the wall figure alone is `python -m bench.twin`'s `preview_10s_move`).
+    # Under a second of computing, and the wall time it reports is that computing's. CPU time,
+    # with wall time only bounded: beside other tests a busy machine made the same 0.2 s preview
+    # take 1.44 s of wall (the wall figure alone is `python -m bench.twin`'s `preview_10s_move`).
     assert cpu_s < 1.0
-    assert preview.compute_s >= 0.9 * cpu_s
+    assert 0.9 * cpu_s <= preview.compute_s < PREVIEW_WALL_BOUND_S
     report = robot.run_behavior(behavior_for(move))
     assert preview.exit == report.exit.value == "goal_reached"
     assert preview.duration_s == pytest.approx(report.duration, abs=0.05)
