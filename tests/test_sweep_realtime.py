@@ -25,10 +25,15 @@ def test_a_ground_trial_through_the_real_link_takes_the_virtual_task_time(tmp_pa
     assert found, text
     real, virtual = float(found[1]), float(found[2])
     assert virtual > 7.0  # the insertion (5.9 s), a round trip and a think, the relieve (1 s)
-    # The command line's bar is 5 %; measured +0.0 %. 2 % here: an operator that stamped each
-    # arrival with the time its wait began (a bug this caught) read -4.6 %.
-    assert real == pytest.approx(virtual, rel=0.02), text
-    assert status == 0 and "holds" in text
+    # The command line's bar is 5 %; measured +0.0 % on an idle machine. Never more than 2 % short
+    # of the virtual time: an operator that stamped each arrival with the time its wait began (a
+    # bug this caught) read -4.6 %. A busy host only makes real time longer (+5.2 % with a core
+    # hogged and two tests at once), so above it the bound is that margin's.
+    assert virtual * 0.98 <= real <= virtual * 1.08, text
+    verdict_holds = "holds" in text
+    assert (status == 0) == verdict_holds, text  # the exit status is the verdict it printed
+    off = abs(real - virtual) / virtual  # (of figures rounded to 10 ms: judged clear of the bar)
+    assert verdict_holds if off <= 0.045 else (not verdict_holds if off >= 0.055 else True), text
 
 
 def test_realtime_runs_one_plain_grid_point(tmp_path: Path) -> None:
