@@ -21,7 +21,8 @@ from robot_sim.params import PtwlParams
 from robot_sim.sim import Simulation
 from robot_sim.telemetry import state_fields
 from web.preview import Previewer
-from web.twin import GroundTwin, TwinPoint
+from web.twin import GroundTwin
+from web.twin_sim import point_from_sim
 
 RTTS_S = (1.0, 3.0, 5.0)
 INSERTION: list[tuple[float, BehaviorParams]] = [
@@ -56,16 +57,7 @@ def preview_cost_s() -> dict[str, float]:
     """Wall seconds of a 10 s move's preview (best of REPEATS, its model already built), and of
     the same move run on a plain simulation."""
     robot = Simulation("free_space")
-    state = robot.state()
-    point = TwinPoint(
-        "free_space",
-        robot.time,
-        state.joint_positions,
-        state.attractor,
-        robot.controller.gains,
-        False,
-        robot.frames,
-    )
+    point = point_from_sim(robot, robot.frames, busy=False)
     previewer = Previewer()
     previewer.run(point, PtwlParams(duration=0.1))  # builds the scene's model once
     preview_s = min(previewer.run(point, PREVIEWED_MOVE).compute_s for _ in range(REPEATS))

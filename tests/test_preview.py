@@ -13,19 +13,11 @@ from robot_sim.task_frames import TaskFrame, unit_quaternion
 from tests.helpers import PREVIEW_WALL_BOUND_S
 from web.preview import Previewer
 from web.twin import TwinPoint
+from web.twin_sim import point_from_sim
 
 
 def point(sim: Simulation) -> TwinPoint:
-    state = sim.state()
-    return TwinPoint(
-        sim.scene.name,
-        sim.time,
-        state.joint_positions,
-        state.attractor,
-        sim.controller.gains,
-        False,
-        sim.frames,
-    )
+    return point_from_sim(sim, sim.frames, busy=False)
 
 
 def test_a_10_s_move_is_previewed_in_under_a_second_and_goes_where_the_robot_goes() -> None:

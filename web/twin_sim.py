@@ -80,6 +80,20 @@ def point_from_state(state: dict[str, Any], frames: TaskFrames) -> TwinPoint:
     )
 
 
+def point_from_sim(sim: Simulation, frames: TaskFrames, busy: bool) -> TwinPoint:
+    """A simulation as it is now, as a start for a preview (the twin's, or a test's robot)."""
+    state_now = sim.state()
+    return TwinPoint(
+        sim.scene.name,
+        sim.time,
+        state_now.joint_positions,
+        state_now.attractor,
+        sim.controller.gains,
+        busy,
+        frames,
+    )
+
+
 def _pose(message: dict[str, Any]) -> Pose:
     return Pose.of(message["position"], message["quaternion"])
 
@@ -183,14 +197,4 @@ class TwinSim:
         """Where the twin is now, to start a preview from."""
         sim = self.sim
         assert sim is not None
-        state_now = sim.state()
-        busy = sim.behavior is not None or bool(self._queue)
-        return TwinPoint(
-            sim.scene.name,
-            sim.time,
-            state_now.joint_positions,
-            state_now.attractor,
-            sim.controller.gains,
-            busy,
-            frames,
-        )
+        return point_from_sim(sim, frames, busy=sim.behavior is not None or bool(self._queue))
