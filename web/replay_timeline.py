@@ -1,7 +1,6 @@
 """The replay's time slider and, under it, the strip of the recording's commands
-(web/replay_marks.py). The slider is made again, with the commands marked on it, once the
-recording is read; only a browser's own move of it seeks (a value the console sets itself
-comes with no client)."""
+(web/replay_marks.py). The commands are marked on the slider once the recording is read; only a
+browser's own move of it seeks (a value the console sets itself comes with no client)."""
 
 import math
 import threading
@@ -9,6 +8,7 @@ from collections.abc import Callable
 from typing import Any, cast
 
 import viser
+from viser._gui_api import _build_slider_marks
 
 from web.markup import Markup, add_html, show
 from web.replay_marks import marks_html, slider_marks
@@ -23,24 +23,22 @@ class Timeline:
         status: dict[str, Any],
         on_seek: Callable[[float], None],
     ) -> None:
-        self._gui, self._folder, self._on_seek = gui, folder, on_seek
+        self._gui, self._on_seek = gui, on_seek
         self._status = status
-        self._lock = threading.Lock()  # the slider is made again when the marks are known
+        self._lock = threading.Lock()  # the poll and the reader both change the slider
         self._marked: list[CommandSpan] | None = None  # the commands marked on the timeline
         self._note = "reading the recording"
         with folder:
-            self._slider = self._add_slider(None, None)
+            self._slider = self._add_slider()
             self._strip = add_html(gui, self._strip_html())
 
-    def _add_slider(self, marks: tuple[float | tuple[float, str], ...] | None, order: float | None) -> Any:
+    def _add_slider(self) -> Any:
         slider = self._gui.add_slider(
             "Time [s]",
             min=0.0,
             max=max(slider_end(self._status["duration_s"]), 0.01),
             step=0.01,
-            initial_value=round(self._status["position_s"], 2) if marks is not None else 0.0,
-            marks=marks,
-            order=order,
+            initial_value=0.0,
         )
 
         @slider.on_update
@@ -52,10 +50,13 @@ class Timeline:
 
     def mark(self, commands: list[CommandSpan], duration_s: float) -> None:
         """The recording's commands, on the slider and the strip: both show them, or neither."""
-        with self._lock, self._folder:
-            old = self._slider
-            self._slider = self._add_slider(slider_marks(commands, slider_end(duration_s)), old.order)
-            old.remove()
+        marks = slider_marks(commands, slider_end(duration_s))
+        with self._lock:
+            # Marked in place: a slider made again would take the operator's focus or drag away
+            # (viser 1.1 keeps them in its `_marks` prop, built as add_slider(marks=...) builds them).
+            slider = cast(Any, self._slider)
+            slider.max = max(slider_end(duration_s), 0.01)
+            slider._marks = _build_slider_marks(marks)
         self._marked = commands
         show(self._strip, self._strip_html())
 
