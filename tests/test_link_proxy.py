@@ -127,11 +127,11 @@ def test_one_second_each_way_200_messages_per_second(fast_server: ServiceProcess
     )  # none lost, in order
     # End to end (server wall clock to this client): never early; typically ~1 ms late. The upper
     # tail here is this Python client's own scheduling while it also sends 200 messages/s (p99
-    # 127 ms late with a core hogged and two tests at once), so it is bounded by percentile with
-    # a margin over that; the link's own timing is checked per message from its record below.
+    # 127 ms late with a core hogged and two tests at once, 298 ms beside a browser test), so it
+    # is bounded by HOST_STALL_S; the link's own timing is checked per message from its record.
     ages = sorted(t - m["sent_at"] for t, m in states)
     assert ages[0] >= 1.0 - 0.002
-    assert ages[len(ages) // 2] <= 1.0 + 0.005 and ages[int(0.99 * len(ages))] <= 1.0 + 0.25
+    assert ages[len(ages) // 2] <= 1.0 + 0.005 and ages[int(0.99 * len(ages))] <= 1.0 + HOST_STALL_S
     records = read_record(record)
     down = check_record(records, "downlink", 5 * 200)
     up = check_record(records, "uplink", 5 * 200)
