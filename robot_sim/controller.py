@@ -175,8 +175,21 @@ class AdmittanceController:
         self.set_gains(gains)
 
     # ----------------------------------------------------------------------------- gains
+    def change_gains(self, gains: Gains) -> None:
+        """Take new stiffness/damping bumplessly: the attractor is placed again so the new K
+        balances the wrench measured now (`balance`), so a force held in contact stays what it
+        was instead of stepping by (K_new - K_old) s. The paper's bumpless transition "also
+        employed when the robot was in contact with non-zero forces" (2.3.2). The same gains
+        leave the attractor where it is (a move in progress keeps its stretch)."""
+        if gains.same_as(self.gains):
+            return
+        self.set_gains(gains)
+        if self.enabled:
+            self.balance(self.control_wrench())
+
     def set_gains(self, gains: Gains) -> None:
-        """Take new stiffness/damping; the attractor stays, so the virtual wrench may step."""
+        """Take new stiffness/damping; the attractor stays, so the virtual wrench may step
+        (a start or a twin's sync; a command changes gains with `change_gains`)."""
         self.gains = gains
         self._inv_damping = 1.0 / gains.damping  # (6,) gains' axes
         self._k_over_b = gains.stiffness * self._inv_damping

@@ -36,6 +36,15 @@ class Gains:
         """The same diagonal, in other axes (a task frame's come with its rotation)."""
         return Gains(self.stiffness, self.damping, frame, R_world_axes)
 
+    def same_as(self, other: "Gains") -> bool:
+        """The same diagonal in the same axes."""
+        return (
+            self.frame == other.frame
+            and np.array_equal(self.stiffness, other.stiffness)
+            and np.array_equal(self.damping, other.damping)
+            and np.array_equal(self.fixed_axes_world(), other.fixed_axes_world())
+        )
+
     def fixed_axes_world(self) -> np.ndarray:
         """(3, 3) the axes K and B are diagonal in, unless `tool` (which turn with the port)."""
         return np.eye(3) if self.R_world_axes is None else self.R_world_axes

@@ -10,6 +10,7 @@ import pytest
 
 from robot_sim.behaviors import Behavior, Dither, ExitCondition, Ptwl, Rwe
 from robot_sim.params import DitherParams, PtwlParams, RweParams
+from robot_sim.presets import default_presets
 from robot_sim.sim import Simulation
 from tests.test_ptwl import GAP_TO_PLATE
 
@@ -147,3 +148,36 @@ def test_attractor_path_has_no_jumps_across_commands() -> None:
             previous_q[:] = ctl.q_world_attractor
     assert worst_p < 1e-4  # [m] per tick: <= 0.1 m/s, no jump
     assert worst_q < 1e-3  # quaternion change per tick: < 2 mrad
+
+
+PRESETS = list(default_presets().stiffness)
+
+
+@pytest.mark.parametrize(("held_by", "changed_to"), [(a, b) for a in PRESETS for b in PRESETS if a != b])
+def test_a_preset_changed_in_contact_keeps_the_held_force(held_by: str, changed_to: str) -> None:
+    """The paper's bumpless transition, "also employed when the robot was in contact with
+    non-zero forces" (2.3.2), for a command that brings new gains: the attractor is placed again
+    for the new K. (Kept where it was, soft -> stiff stepped a 15 N press to 118 N.)"""
+    sim = pressing()
+    hold = PtwlParams(translation=[0, 0, 0], duration=0.5, force_threshold=40, preset=held_by)
+    sim.run_behavior(Ptwl(hold))
+    sim.run(0.5)
+    before = float(sim.controller.w_world_env_on_port[2])
+    assert before == pytest.approx(PRESS_N, rel=0.10)  # held by `held_by`'s stiffness
+    sim.start(Ptwl(hold.model_copy(update={"preset": changed_to})))
+    assert_force_kept(sim, before)
+    assert float(np.mean(force_z_over(sim, 0.5))) == pytest.approx(before, rel=0.10)
+    expected = default_presets().stiffness_preset(changed_to).to_gains()
+    assert np.array_equal(sim.controller.gains.stiffness, expected.stiffness)  # taken, not kept
+    assert np.array_equal(sim.controller.gains.damping, expected.damping)
+
+
+def test_a_stiffer_move_along_the_plate_starts_without_breaching() -> None:
+    """Issue 29's case: pressing at 15 N, a stiff PTWL 10 mm along and 7.5 mm into the plate
+    (15 N threshold) breached 1 ms after its start at 22.1 N; it now starts from the force held."""
+    sim = pressing()
+    before = float(sim.controller.w_world_env_on_port[2])
+    move = PtwlParams(translation=[0.01, 0, 0.0075], frame="base", duration=2.0, force_threshold=20)
+    sim.start(Ptwl(move.model_copy(update={"preset": "stiff"})))
+    assert_force_kept(sim, before)
+    assert sim.behavior is not None  # still running: no breach at the start

@@ -89,7 +89,7 @@ class Ptwl(Behavior):
 
     def start(self, ctl: AdmittanceController, t: float, frames: TaskFrames) -> None:
         p = self.params
-        ctl.set_gains(frames.resolve_gains(p.gains(ctl.gains)))
+        ctl.change_gains(frames.resolve_gains(p.gains(ctl.gains)))
         self._t0 = t
         goal = ptwl_goal(ctl.p_world_port, ctl.q_world_port, p, frames)
         self.p_world_goal[:], self.q_world_goal[:] = goal
