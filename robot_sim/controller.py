@@ -171,7 +171,10 @@ class AdmittanceController:
         self._q_tmp = np.zeros(4)
         self.manipulability = 0.0
         self.speed_scale = 1.0  # last uniform scale applied for joint speed limits (<= 1)
-        self.limited: Limit | None = None  # what held the motion back this tick, if anything
+        self.limits: tuple[Limit, ...] = ()  # every limit that held the motion back this tick
+        self.limited: Limit | None = None  # the first of them (telemetry's `limited`), if any
+        # the joints slowed at an end of their range this tick: (index, "lower" | "upper")
+        self.joints_held: tuple[tuple[int, str], ...] = ()
         self.set_gains(gains)
 
     # ----------------------------------------------------------------------------- gains
@@ -337,14 +340,15 @@ class AdmittanceController:
         self._qdot_map.dot(self._v, out=qdot)
         # Slow commands far from limits and singularities need no limiting (the common case).
         if mujoco.mju_norm(qdot) > FAST_REFRESH_SPEED or self._refresh_every_tick or self._near_joint_limit:
-            self.limited = self._limit_joint_motion(qdot, previous=self._ctrl_vel)
+            self.limits = self._limit_joint_motion(qdot, previous=self._ctrl_vel)
+            self.limited = self.limits[0] if self.limits else None
         else:
             self.speed_scale = 1.0
-            self.limited = None
+            self.limits, self.limited, self.joints_held = (), None, ()
         self._ctrl_vel[:] = qdot
 
-    def _limit_joint_motion(self, qdot: np.ndarray, previous: np.ndarray) -> Limit | None:
-        """Hold qdot to the drives' limits in place; what held the motion back, if anything."""
+    def _limit_joint_motion(self, qdot: np.ndarray, previous: np.ndarray) -> tuple[Limit, ...]:
+        """Hold qdot to the drives' limits in place; every limit that held the motion back."""
         # Speed: one scale for all joints keeps the Cartesian direction.
         peak = float(np.max(np.abs(qdot) * self._inv_speed_limit))
         self.speed_scale = 1.0 if peak <= 1.0 else 1.0 / peak
@@ -353,33 +357,36 @@ class AdmittanceController:
         # Acceleration: as a drive would, so the DLS taking over near a singularity (or a
         # sudden attractor jump) decelerates the arm over tens of ms instead of a few.
         np.clip(qdot, previous - self._max_dqdot, previous + self._max_dqdot, out=qdot)
-        tapered = self._near_joint_limit and self._taper_at_joint_limits(qdot)
-        if self.manipulability < MANIPULABILITY_THRESHOLD:
-            return Limit.SINGULARITY
-        if tapered:
-            return Limit.JOINT_LIMIT
-        return Limit.SPEED if peak > 1.0 else None
+        self.joints_held = self._taper_at_joint_limits(qdot) if self._near_joint_limit else ()
+        held = (
+            (Limit.SINGULARITY,) * (self.manipulability < MANIPULABILITY_THRESHOLD)
+            + (Limit.JOINT_LIMIT,) * bool(self.joints_held)
+            + (Limit.SPEED,) * (peak > 1.0)
+        )
+        return held
 
-    def _taper_at_joint_limits(self, qdot: np.ndarray) -> bool:
+    def _taper_at_joint_limits(self, qdot: np.ndarray) -> tuple[tuple[int, str], ...]:
         """Slow each joint toward its limit linearly over the last margin: it stops, never hits.
 
-        Returns whether any joint was slowed.
+        Returns the joints slowed, each with the end it was slowed toward.
         """
         q = self._qpos
         lo = self.layout.joint_range[:, 0]
         hi = self.layout.joint_range[:, 1]
         vmax = self.layout.joint_speed_limit
-        slowed = False
+        slowed: list[tuple[int, str]] = []
         for i in range(6):
             if qdot[i] > 0.0:
                 cap = vmax[i] * max(0.0, min(1.0, (hi[i] - q[i]) / JOINT_LIMIT_MARGIN_RAD))
                 if qdot[i] > cap:
-                    qdot[i], slowed = cap, True
+                    qdot[i] = cap
+                    slowed.append((i, "upper"))
             elif qdot[i] < 0.0:
                 cap = vmax[i] * max(0.0, min(1.0, (q[i] - lo[i]) / JOINT_LIMIT_MARGIN_RAD))
                 if qdot[i] < -cap:
-                    qdot[i], slowed = -cap, True
-        return slowed
+                    qdot[i] = -cap
+                    slowed.append((i, "lower"))
+        return tuple(slowed)
 
     @property
     def qdot_cmd(self) -> np.ndarray:

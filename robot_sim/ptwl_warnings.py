@@ -1,21 +1,27 @@
-"""What the robot warns of a PTWL it accepts (the 202's `warnings`, and the console's check line
-before Send: one list, from here): a move too small to make, an approach too fast to stop."""
+"""What the robot warns of a PTWL it accepts (the 202's `warnings`): a move too small to make,
+an approach too fast to stop, a goal the arm cannot reach."""
 
 import math
 
 import numpy as np
 
-from robot_sim.gains import Gains
+from robot_sim.behaviors.ptwl import ptwl_goal
 from robot_sim.impact import impact_warnings
 from robot_sim.params import PtwlParams
-from robot_sim.task_frames import TaskFrames
+from robot_sim.reach import reach_warnings
+from robot_sim.sim import Simulation
 
 
-def ptwl_warnings(
-    params: PtwlParams, current: Gains, q_world_port: "list[float] | np.ndarray", frames: TaskFrames
-) -> list[str]:
-    """Every warning for an accepted PTWL; the arguments as for `impact_warnings`."""
-    return [*tolerance_warnings(params), *impact_warnings(params, current, q_world_port, frames)]
+def ptwl_warnings(params: PtwlParams, sim: Simulation) -> list[str]:
+    """(simulation thread) Every warning for an accepted PTWL, judged from the arm as it is now
+    (a queued move starts later, from wherever the port is then)."""
+    ctl = sim.controller
+    p_world_goal, q_world_goal = ptwl_goal(ctl.p_world_port, ctl.q_world_port, params, sim.frames)
+    return [
+        *tolerance_warnings(params),
+        *impact_warnings(params, ctl.gains, ctl.q_world_port, sim.frames),
+        *reach_warnings(sim.model, sim.data, sim.layout, p_world_goal, q_world_goal),
+    ]
 
 
 def tolerance_warnings(params: PtwlParams) -> list[str]:

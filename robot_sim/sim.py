@@ -21,9 +21,10 @@ import numpy as np
 from robot_sim.arm import ArmLayout
 from robot_sim.behaviors.base import Behavior, BehaviorReport, ExitCondition, Pose
 from robot_sim.behaviors.gripper import Gripper
-from robot_sim.controller import FT_CUTOFF_HZ, AdmittanceController, Limit
+from robot_sim.controller import FT_CUTOFF_HZ, AdmittanceController
 from robot_sim.errors import RobotSimError, SimulationFault
 from robot_sim.gains import Gains
+from robot_sim.held_back import HeldBack
 from robot_sim.model import PHYSICS_TIMESTEP_S, build_model
 from robot_sim.payload import Payload
 from robot_sim.presets import default_presets
@@ -69,12 +70,6 @@ def _pose(position: np.ndarray, quaternion: np.ndarray) -> Pose:
     p = (float(position[0]), float(position[1]), float(position[2]))
     q = (float(quaternion[0]), float(quaternion[1]), float(quaternion[2]), float(quaternion[3]))
     return Pose(p, q)
-
-
-def limited_detail(limited_s: "dict[Limit, float]") -> str:
-    """`limited: singularity (1.20 s), speed (0.05 s)`: what held the port back, longest first."""
-    parts = sorted(limited_s.items(), key=lambda item: -item[1])
-    return "limited: " + ", ".join(f"{limit.value} ({seconds:.2f} s)" for limit, seconds in parts)
 
 
 class Simulation:
@@ -163,7 +158,7 @@ class Simulation:
         self._behavior_started_at = 0.0
         self._peak_force = 0.0
         self._peak_torque = 0.0
-        self._limited_s: dict[Limit, float] = {}  # [s] per limit, while the behavior ran
+        self._held_back = HeldBack()  # what held the port back while the behavior ran
         self._behavior_detail = ""  # what the running behavior's report will say (a grasp)
         self.monitor: FrictionMonitor | None = None  # the last behavior's task monitor, if it had one
 
@@ -211,8 +206,8 @@ class Simulation:
                     self._peak_force = ctl.force_norm
                 if ctl.torque_norm > self._peak_torque:
                     self._peak_torque = ctl.torque_norm
-                if ctl.limited is not None:
-                    self._limited_s[ctl.limited] = self._limited_s.get(ctl.limited, 0.0) + self.control_dt
+                if ctl.limits:
+                    self._held_back.add(ctl, self.control_dt)
                 exit_condition = behavior.update(ctl, now)  # its own exits first: a breach before all
                 monitor = self.monitor
                 if exit_condition is None and monitor is not None and monitor.update(ctl):
@@ -256,7 +251,7 @@ class Simulation:
         self._behavior_started_at = self.time
         self._peak_force = 0.0
         self._peak_torque = 0.0
-        self._limited_s = {}
+        self._held_back = HeldBack()
         self._behavior_detail = ""
         spec = behavior.monitor_spec()
         self.monitor = FrictionMonitor(spec, self.control_dt) if spec is not None else None
@@ -293,8 +288,10 @@ class Simulation:
         ctl = self.controller
         if not detail:
             detail = self._behavior_detail
-        if not detail and self._limited_s:
-            detail = limited_detail(self._limited_s)
+        if not detail:
+            short = self.behavior.shortfall(ctl) if exit_condition is not ExitCondition.GOAL_REACHED else ""
+            held_back = self._held_back.detail(self.layout.joint_range)
+            detail = "; ".join(part for part in (short, held_back) if part)
         report = BehaviorReport(
             behavior=self.behavior.kind,
             exit=exit_condition,

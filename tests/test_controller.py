@@ -1,6 +1,8 @@
 """Controller properties: bumpless start, limits that slow instead of jump, determinism, faults."""
 
 import math
+import re
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -71,7 +73,8 @@ def test_joint_limit_is_approached_smoothly_never_hit() -> None:
     report = sim.run_behavior(Ptwl(PtwlParams(rotation=[0, 0, 0.5], duration=1.0, watchdog=3.0)))
     q6 = sim.data.qpos[5]
     assert report.exit is ExitCondition.TIMEOUT
-    assert report.detail.startswith("limited: joint_limit")  # says why it stopped short
+    assert "limited: joint_limit (" in report.detail  # says why it stopped short, and which joint
+    assert "joint 6 at its upper end" in report.detail
     assert sim.state().limited == "joint_limit"
     assert upper - 0.05 < q6 < upper
     assert abs(sim.data.qvel[5]) < 1e-3
@@ -100,7 +103,7 @@ def test_stretching_past_reach_slows_down_at_the_singularity() -> None:
         previous_cmd = sim.controller.qdot_cmd.copy()
         previous = qvel.copy()
     assert report.exit is ExitCondition.TIMEOUT  # the goal is out of reach; no inertial breach
-    assert report.detail.startswith("limited: singularity")
+    assert "limited: singularity (" in report.detail
     assert sim.state().limited == "singularity"
     assert report.peak_force < 12.0
     assert min(manipulability) < 0.1 * MANIPULABILITY_THRESHOLD  # it did reach the singular stretch
@@ -168,3 +171,34 @@ def test_500_hz_control_keeps_the_time_constant() -> None:
 def test_control_rate_must_divide_the_physics_rate(hz: float) -> None:
     with pytest.raises(RobotSimError, match="control_hz"):
         Simulation("free_space", control_hz=hz)
+
+
+@pytest.mark.parametrize(
+    ("move", "limits"),
+    [
+        # The issue's two: a turn the wrist cannot make, and a lift past reach that also runs
+        # joint 5 into its end (the report named only the singularity).
+        ({"rotation": [3.1, 0, 0]}, ["joint_limit"]),
+        ({"translation": [0, 0, 0.6], "frame": "base"}, ["singularity", "joint_limit"]),
+    ],
+)
+def test_a_port_held_back_says_how_far_from_its_goal_and_every_limit(
+    move: dict[str, Any], limits: list[str]
+) -> None:
+    sim = Simulation("free_space")
+    ptwl = Ptwl(PtwlParams(duration=5.0, **move))
+    report = sim.run_behavior(ptwl)
+    assert report.exit is ExitCondition.TIMEOUT
+    said = re.fullmatch(r"port ([\d.]+) mm and ([\d.]+) deg from its goal; limited: (.*)", report.detail)
+    assert said is not None, report.detail
+    distance_mm = 1000.0 * float(np.linalg.norm(ptwl.p_world_goal - sim.controller.p_world_port))
+    assert float(said[1]) == pytest.approx(distance_mm, abs=0.05) and distance_mm > 100.0
+    assert re.findall(r"(\w+) \(\d+\.\d\d s", said[3]) == limits  # longest first
+    assert "joint 5 at its upper end, +120 deg" in said[3]
+    upper_rad = sim.layout.joint_range[4, 1]
+    assert upper_rad - 0.05 < sim.data.qpos[4] < upper_rad + 0.001  # at its end (the servo: +0.6 mrad)
+
+
+def test_a_goal_reached_says_nothing_held_it_back() -> None:
+    report = Simulation("free_space").run_behavior(Ptwl(PtwlParams(translation=[0.05, 0, 0], duration=2.0)))
+    assert report.exit is ExitCondition.GOAL_REACHED and report.detail == ""

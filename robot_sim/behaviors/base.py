@@ -122,3 +122,7 @@ class Behavior(ABC):
         operator's display should show as commanded once the robot has resolved a relative
         displacement against the port where it really was at start."""
         return None
+
+    def shortfall(self, ctl: AdmittanceController) -> str:
+        """(at an end short of its goal) How far the port is from the goal, if it has one."""
+        return ""

@@ -13,6 +13,8 @@ frame at start (`tool`), base axes (`base`) or a task frame's axes; all rotate a
 origin.
 """
 
+import math
+
 import mujoco
 import numpy as np
 
@@ -102,6 +104,11 @@ class Ptwl(Behavior):
 
     def goal_pose(self) -> Pose:
         return Pose.of(self.p_world_goal, self.q_world_goal)
+
+    def shortfall(self, ctl: AdmittanceController) -> str:
+        distance_m = mujoco.mju_dist3(self.p_world_goal, ctl.p_world_port)
+        angle_rad = angle_between(self.q_world_goal, ctl.q_world_port, self._v_tmp)
+        return f"port {1000.0 * distance_m:.1f} mm and {math.degrees(angle_rad):.1f} deg from its goal"
 
     def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:
         p = self.params

@@ -71,8 +71,7 @@ async def submit_command(
         record = book.submit(params, sender)
         warnings: list[str] = []
         if isinstance(params, PtwlParams):
-            q_world_port = runner.latest_state["port"]["quaternion"]
-            warnings = ptwl_warnings(params, sim.controller.gains, q_world_port, sim.frames)
+            warnings = ptwl_warnings(params, sim)
         return CommandAccepted(id=record.id, instance=record.instance, warnings=warnings)
 
     return await on_sim_thread(runner, admit)
