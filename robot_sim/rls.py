@@ -13,11 +13,16 @@ import numpy as np
 
 class VectorForgettingRls:
     def __init__(
-        self, theta0: np.ndarray, variance0: float, forgetting: np.ndarray, max_variance: float
+        self,
+        theta0: np.ndarray,
+        variance0: "float | np.ndarray",
+        forgetting: np.ndarray,
+        max_variance: "float | np.ndarray",
     ) -> None:
+        """variance0, max_variance: one for all parameters, or one each."""
         self.theta = np.array(theta0, dtype=float)
         n = self.theta.size
-        self.P = np.eye(n) * variance0
+        self.P = np.diag(np.broadcast_to(np.asarray(variance0, dtype=float), (n,))).copy()
         self._scale = 1.0 / np.sqrt(np.asarray(forgetting, dtype=float))  # Lambda^-1/2, diagonal
         self._max_variance = max_variance
         self.updates = 0

@@ -9,6 +9,12 @@ has slid for `warmup` judges each sample against the prediction made before seei
 max(band_fraction |F_t_hat|, band_min) for `persist` is an anomaly. It neither learns nor judges
 out of contact or while not sliding (the model holds only while sliding), and never learns
 from a sample outside the band, so a jam cannot teach it that jamming is normal.
+
+It also does not judge where it would be blind: below the normal force at which its band's
+floor (`band_min`) is as wide as the friction force itself, even a doubling of friction (a rough
+patch) stays inside the band. There it neither judges nor learns (what it cannot see it would
+learn as normal) and says so (`not_judging`: "normal force 1.8 N < 3.3 N") instead of passing
+silently; out of contact it says the same against `min_normal_force`.
 """
 
 from dataclasses import dataclass
@@ -21,8 +27,13 @@ from robot_sim.params import MonitorSpec
 from robot_sim.rls import VectorForgettingRls
 
 WINDOW_S = 0.01  # [s] one sample per window: the mean force and the port's travel over it
-VARIANCE0 = 100.0  # initial covariance: (mu, c) start at 0, known to nobody
-MAX_VARIANCE = 100.0
+# Initial covariance of (mu, c), both starting at 0: mu unknown, c believed within about +-1 N.
+# Slid at a constant normal force, mu |F_n| + c cannot tell mu from c; equal priors split the
+# force between them (at 4 N: mu 0.25-0.28 read for a true 0.3, and noise drifting along the
+# unseen direction read 0.35), while a tighter prior on c gives it to mu (0.296 after 3 s). A
+# real constant force is still learned once the normal force varies. Each is also its cap.
+VARIANCE0 = np.array([100.0, 1.0])
+MAX_VARIANCE = VARIANCE0
 
 
 @dataclass
@@ -48,6 +59,7 @@ class FrictionMonitor:
         self.predicted_n = 0.0
         self.band_n = 0.0
         self.judging = False
+        self.not_judging: str | None = None  # why it is blind now ("normal force X N < Y N")
         self.anomaly = False
 
     @property
@@ -80,17 +92,33 @@ class FrictionMonitor:
         self.last = sample
         return self._judge(sample)
 
+    def judging_floor_n(self) -> float:
+        """[N] the normal force below which it cannot judge: in contact, and where the friction
+        it has learned, mu |F_n| + c, is at least the band's floor (a doubling would leave it)."""
+        spec = self.spec
+        if self.mu <= 0.0:
+            return spec.min_normal_force
+        return max(spec.min_normal_force, (spec.band_min - self.c_n) / self.mu)
+
     def _judge(self, sample: Sample) -> bool:
         spec = self.spec
         if sample.normal_n < spec.min_normal_force:  # out of contact: no model to hold
             self.outside_s = 0.0
             self.judging = False
+            self.not_judging = f"normal force {sample.normal_n:.1f} N < {spec.min_normal_force:.1f} N"
             return False
         sliding = sample.speed_m_s >= spec.min_speed
         phi = np.array([sample.normal_n, 1.0])
         self.predicted_n = self.rls.predict(phi)
         self.band_n = max(spec.band_fraction * abs(self.predicted_n), spec.band_min)
-        self.judging = self.learned_s >= spec.warmup
+        learned = self.learned_s >= spec.warmup
+        floor_n = self.judging_floor_n()
+        blind = learned and sample.normal_n < floor_n
+        self.not_judging = f"normal force {sample.normal_n:.1f} N < {floor_n:.1f} N" if blind else None
+        self.judging = learned and not blind
+        if blind:  # nor learns: a rough patch it cannot see would be learned as normal
+            self.outside_s = 0.0
+            return False
         residual_n = sample.tangential_n - self.predicted_n
         # Stuck, friction may hold anything up to mu |F_n|: only a force above the band (a jam)
         # is off the model. Sliding, it is off on either side (the paper's "higher or lower").
@@ -129,6 +157,7 @@ class FrictionMonitor:
             "residual": (s.tangential_n - self.predicted_n) if s is not None else None,
             "band": self.band_n,
             "judging": self.judging,
+            "not_judging": self.not_judging,
             "anomaly": self.anomaly,
             "samples_learned": self.rls.updates,
         }

@@ -164,6 +164,11 @@ class MonitorModel(BaseModel):
     residual: float | None = Field(description="[N] measured - predicted")
     band: float = Field(description="[N] beyond this residual the sample is off the model")
     judging: bool = Field(description="sliding in contact past the warm-up: samples are judged")
+    not_judging: str | None = Field(
+        None,
+        description="why it cannot judge now: `normal force X N < Y N` (out of contact, or so light a "
+        "press that even a doubling of friction stays inside the band's floor); null otherwise",
+    )
     anomaly: bool = Field(description="the behavior ended `anomaly`")
     samples_learned: int = Field(description="samples the estimator has learned from")
 

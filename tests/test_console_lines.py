@@ -41,3 +41,29 @@ def test_frames_are_listed_with_their_poses() -> None:
     ]
     html = str(frames_html(frames))
     assert "<b>slanted</b> origin (400.0, -50.0, 300.0) mm, rotation (90.0, 0.0, 0.0) deg" in html
+
+
+def monitor_fields(**more: object) -> dict[str, object]:
+    from robot_sim.params import MonitorSpec
+    from robot_sim.task_monitor import FrictionMonitor
+
+    return {**FrictionMonitor(MonitorSpec(), 0.001).fields(), **more}
+
+
+def test_the_force_monitor_never_passes_silently_on_the_bar() -> None:
+    def shown(**more: object) -> str:
+        state = {**state_fields(Simulation("free_space"), []), "seq": 7, "sent_at": 100.0, "instance": "a"}
+        state["monitor"] = monitor_fields(**more)
+        inputs = BarInputs(state, 100.1, True, LinkLine("fresh", "link round trip 0 s"), 0.0, "", "")
+        return str(_render(inputs, 0.1, "fresh"))
+
+    assert 'id="ptwl-monitor"' not in bar()  # no behavior asked for one
+    assert 'data-state="learning"' in shown() and "force monitor: learning (0 samples)" in shown()
+    judging = shown(judging=True, mu=0.3, c=0.01, band=1.0)
+    assert 'data-state="judging"' in judging and "judging · mu 0.300, c 0.01 N · within ±1.00 N" in judging
+    blind = shown(judging=False, not_judging="normal force 1.8 N < 3.3 N")
+    assert 'data-state="blind"' in blind and "<b>not judging</b> (normal force 1.8 N &lt; 3.3 N)" in blind
+    assert 'data-state="anomaly"' in shown(anomaly=True, not_judging=None)
+    # From a recording the reason is data, never markup.
+    crafted = shown(not_judging='<img src=x onerror="alert(1)">')
+    assert "<img" not in crafted and "&lt;img src=x" in crafted

@@ -153,3 +153,41 @@ def test_telemetry_carries_the_monitors_estimates_and_residual() -> None:
     assert monitor.mu == pytest.approx(MU_SMOOTH, rel=0.05)
     assert monitor.residual is not None and monitor.residual > monitor.band > 0.0
     assert state_fields(Simulation("friction_step"), [])["monitor"] is None  # none asked for
+
+
+def test_mu_is_learned_within_5_percent_at_a_constant_4_n_press() -> None:
+    """At one normal force mu |F_n| + c cannot tell mu from c; with equal priors the monitor gave
+    part of the friction to c (mu read 0.25-0.28 for 0.3) and noise drifted it further."""
+    monitor = FrictionMonitor(MonitorSpec(), control_dt_s=0.001)
+    rng = np.random.default_rng(1)
+    for _ in range(300):  # 3 s of 10 ms samples, sliding at 5 mm/s
+        monitor._judge(Sample(4.0, 0.3 * 4.0 + rng.normal(0.0, 0.05), 0.005))
+    assert monitor.mu == pytest.approx(0.3, rel=0.05) and abs(monitor.c_n) < 0.1
+
+
+def test_a_constant_force_is_still_learned_once_the_normal_force_varies() -> None:
+    """The paper's cutting force: F_t = mu |F_n| + c with c = 2 N, pressed from 4 to 20 N."""
+    monitor = FrictionMonitor(MonitorSpec(), control_dt_s=0.001)
+    for normal_n in np.linspace(4.0, 20.0, 300):
+        monitor._judge(Sample(normal_n, 0.3 * normal_n + 2.0, 0.005))
+    assert monitor.mu == pytest.approx(0.3, rel=0.05) and monitor.c_n == pytest.approx(2.0, rel=0.10)
+
+
+def test_below_the_force_where_it_can_judge_it_says_so_instead_of_passing() -> None:
+    """Issue 29: under 2 N a rough patch (friction doubled) stayed inside the band's 1 N floor and
+    nothing said the monitor was blind there."""
+    monitor = FrictionMonitor(MonitorSpec(), control_dt_s=0.001)
+    for normal_n in np.linspace(4.0, 16.0, 60):  # mu 0.3 learned
+        judge(monitor, normal_n, 0.3 * normal_n, 0.01, 1)
+    assert monitor.judging and monitor.not_judging is None
+    floor_n = monitor.judging_floor_n()
+    assert floor_n == pytest.approx(1.0 / 0.3, rel=0.05)  # band_min / mu: where mu |F_n| = 1 N
+    assert not judge(monitor, 1.8, 0.6 * 1.8, 0.01, 10)  # the rough patch at 1.8 N: not seen...
+    assert (
+        not monitor.judging and monitor.not_judging == f"normal force 1.8 N < {floor_n:.1f} N"
+    )  # ...and said
+    assert monitor.fields()["not_judging"] == monitor.not_judging
+    assert not judge(monitor, 0.5, 0.0, 0.01, 1)  # lifted off: out of contact, said against 1 N
+    assert monitor.not_judging == "normal force 0.5 N < 1.0 N"
+    assert judge(monitor, 6.0, 0.6 * 6.0, 0.01, 3)  # the same patch pressed at 6 N: flagged
+    assert monitor.judging and monitor.not_judging is None

@@ -15,6 +15,7 @@ from typing import Any, Literal
 import viser
 
 from web.markup import Markup, add_html, show
+from web.monitor_line import monitor_html
 from web.stop_sender import StopState
 from web.telemetry_health import LinkLine
 from web.worker import Worker
@@ -144,7 +145,7 @@ def _render(inputs: BarInputs, age: float | None, level: Level) -> Markup:
         'data-level="{level}" data-link="{link_up}" data-rtt="{rtt}">{robot}{stale}</div>'
         "{link}"
         '<div id="ptwl-running">{command} · <span id="ptwl-holder">control: {holder}</span></div>'
-        "{prediction}{task}</div>"
+        "{prediction}{task}{monitor}</div>"
     ).format(
         color=color,
         dead=DEAD_MAN_HTML,
@@ -167,6 +168,7 @@ def _render(inputs: BarInputs, age: float | None, level: Level) -> Markup:
             inputs.twin_note,
         ),
         task=_task_html(state.get("task") if state else None),
+        monitor=monitor_html(state.get("monitor") if state else None),
     )
 
 
