@@ -181,3 +181,20 @@ def test_a_stiffer_move_along_the_plate_starts_without_breaching() -> None:
     sim.start(Ptwl(move.model_copy(update={"preset": "stiff"})))
     assert_force_kept(sim, before)
     assert sim.behavior is not None  # still running: no breach at the start
+
+
+def test_damping_or_axes_alone_changed_are_taken_and_keep_the_press() -> None:
+    sim = pressing()
+    before = float(sim.controller.w_world_env_on_port[2])
+    damping = (2.0 * sim.controller.gains.damping).tolist()
+    stiffness = sim.controller.gains.stiffness.tolist()
+    hold = PtwlParams(translation=[0, 0, 0], stiffness=stiffness, damping=damping, force_threshold=40)
+    sim.start(Ptwl(hold))
+    assert_force_kept(sim, before)
+    assert sim.controller.gains.damping.tolist() == damping
+    # The same diagonal in the tool's axes (the probe points down: K's axes turn, not its size).
+    sim.run(0.5)
+    before = float(sim.controller.w_world_env_on_port[2])
+    sim.start(Ptwl(hold.model_copy(update={"gains_frame": "tool"})))
+    assert_force_kept(sim, before)
+    assert sim.controller.gains.frame == "tool"

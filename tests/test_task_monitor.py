@@ -171,6 +171,7 @@ def test_a_constant_force_is_still_learned_once_the_normal_force_varies() -> Non
     for normal_n in np.linspace(4.0, 20.0, 300):
         monitor._judge(Sample(normal_n, 0.3 * normal_n + 2.0, 0.005))
     assert monitor.mu == pytest.approx(0.3, rel=0.05) and monitor.c_n == pytest.approx(2.0, rel=0.10)
+    assert monitor.judging_floor_n() == 1.0  # c alone exceeds the band's floor: judged once in contact
 
 
 def test_below_the_force_where_it_can_judge_it_says_so_instead_of_passing() -> None:
