@@ -179,16 +179,23 @@ class AdmittanceController:
 
     # ----------------------------------------------------------------------------- gains
     def change_gains(self, gains: Gains) -> None:
-        """Take new stiffness/damping bumplessly: the attractor is placed again so the new K
-        balances the wrench measured now (`balance`), so a force held in contact stays what it
-        was instead of stepping by (K_new - K_old) s. The paper's bumpless transition "also
-        employed when the robot was in contact with non-zero forces" (2.3.2). The same gains
-        leave the attractor where it is (a move in progress keeps its stretch)."""
+        """Take new stiffness/damping bumplessly: the spring's wrench K s is carried over, the
+        attractor placed again so the new K pulls as the old one did (`balance` of it). At rest
+        that balances the measured wrench, so a force held in contact stays what it was instead
+        of stepping by (K_new - K_old) s: the paper's bumpless transition "also employed when the
+        robot was in contact with non-zero forces" (2.3.2). Moving, the spring's pull (B v) is
+        kept too, so a change mid-move neither stops nor reverses the arm. The same stiffness in
+        the same axes (damping alone, or the same gains) leaves the attractor where it is."""
         if gains.same_as(self.gains):
             return
+        same_spring = gains.frame == self.gains.frame and np.array_equal(
+            gains.stiffness, self.gains.stiffness
+        )
+        same_spring = same_spring and np.array_equal(gains.fixed_axes_world(), self.gains.fixed_axes_world())
+        spring_world = self.stiffness_world() @ self.stretch_world()
         self.set_gains(gains)
-        if self.enabled:
-            self.balance(self.control_wrench())
+        if self.enabled and not same_spring:
+            self.balance(-spring_world)  # balance(w) gives K s = -w
 
     def set_gains(self, gains: Gains) -> None:
         """Take new stiffness/damping; the attractor stays, so the virtual wrench may step

@@ -37,11 +37,14 @@ class Gains:
         return Gains(self.stiffness, self.damping, frame, R_world_axes)
 
     def same_as(self, other: "Gains") -> bool:
-        """The same diagonal in the same axes."""
+        """The same diagonals in the same axes."""
+        return self.same_spring_as(other) and np.array_equal(self.damping, other.damping)
+
+    def same_spring_as(self, other: "Gains") -> bool:
+        """The same stiffness in the same axes (damping aside)."""
         return (
             self.frame == other.frame
             and np.array_equal(self.stiffness, other.stiffness)
-            and np.array_equal(self.damping, other.damping)
             and np.array_equal(self.fixed_axes_world(), other.fixed_axes_world())
         )
 

@@ -238,8 +238,9 @@ class Simulation:
     def start(self, behavior: Behavior) -> BehaviorReport | None:
         """Start `behavior` now, preempting any running one.
 
-        The behavior starts from the attractor where it is, so nothing jumps: a held force
-        carries into the new command.
+        The behavior starts from the attractor where it is (or, bringing other stiffness, where
+        the new spring pulls as the old one did), so nothing jumps: a held force carries into
+        the new command.
 
         Returns:
             The preempted behavior's report (exit `aborted`, detail "preempted"), or None.

@@ -12,11 +12,13 @@ from a sample outside the band, so a jam cannot teach it that jamming is normal.
 
 It also does not judge where it would be blind: below the normal force at which its band's
 floor (`band_min`) is as wide as the friction force itself, even a doubling of friction (a rough
-patch) stays inside the band. There it neither judges nor learns (what it cannot see it would
-learn as normal) and says so (`not_judging`: "normal force 1.8 N < 3.3 N") instead of passing
-silently; out of contact it says the same against `min_normal_force`.
+patch) stays inside the band. There it does not judge friction and does not learn (what it
+cannot see it would learn as normal), but a force past the band is still a jam; it says so
+(`not_judging`: "normal force 1.80 N < 3.33 N") instead of passing silently; out of contact it
+says the same against `min_normal_force`.
 """
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -96,8 +98,10 @@ class FrictionMonitor:
         """[N] the normal force below which it cannot judge: in contact, and where the friction
         it has learned, mu |F_n| + c, is at least the band's floor (a doubling would leave it)."""
         spec = self.spec
-        if self.mu <= 0.0:
+        if self.c_n >= spec.band_min:  # the constant force alone fills the band's floor
             return spec.min_normal_force
+        if self.mu <= 0.0:  # no press is enough
+            return math.inf
         return max(spec.min_normal_force, (spec.band_min - self.c_n) / self.mu)
 
     def _judge(self, sample: Sample) -> bool:
@@ -105,7 +109,7 @@ class FrictionMonitor:
         if sample.normal_n < spec.min_normal_force:  # out of contact: no model to hold
             self.outside_s = 0.0
             self.judging = False
-            self.not_judging = f"normal force {sample.normal_n:.1f} N < {spec.min_normal_force:.1f} N"
+            self.not_judging = f"normal force {sample.normal_n:.2f} N < {spec.min_normal_force:.2f} N"
             return False
         sliding = sample.speed_m_s >= spec.min_speed
         phi = np.array([sample.normal_n, 1.0])
@@ -114,20 +118,20 @@ class FrictionMonitor:
         learned = self.learned_s >= spec.warmup
         floor_n = self.judging_floor_n()
         blind = learned and sample.normal_n < floor_n
-        self.not_judging = f"normal force {sample.normal_n:.1f} N < {floor_n:.1f} N" if blind else None
+        self.not_judging = f"normal force {sample.normal_n:.2f} N < {floor_n:.2f} N" if blind else None
         self.judging = learned and not blind
-        if blind:  # nor learns: a rough patch it cannot see would be learned as normal
-            self.outside_s = 0.0
-            return False
         residual_n = sample.tangential_n - self.predicted_n
         # Stuck, friction may hold anything up to mu |F_n|: only a force above the band (a jam)
         # is off the model. Sliding, it is off on either side (the paper's "higher or lower").
-        off = residual_n > self.band_n or (sliding and residual_n < -self.band_n)
-        if self.judging and off:
+        # Blind to a change of friction, a force past the band is still a jam.
+        off = residual_n > self.band_n or (self.judging and sliding and residual_n < -self.band_n)
+        if learned and off:
             self.outside_s += self._window_s
             self.anomaly = self.outside_s >= spec.persist - 1e-9
             return self.anomaly
         self.outside_s = 0.0
+        if blind:  # nor learns: a rough patch it cannot see would be learned as normal
+            return False
         if sliding:  # learn from sliding samples (once judging, only those on the model: see above)
             self.rls.update(phi, sample.tangential_n)
             self.learned_s += self._window_s

@@ -97,8 +97,10 @@ class CommandStatus(BaseModel):
     final_port: PoseModel | None = Field(None, description="port pose at exit; null if not finite")
     detail: str = Field(
         "",
-        description="why it ended, when there is more to say: stop, fault, what held the port "
-        "back (`limited: singularity (1.20 s)`; also joint_limit, speed), what the gripper holds",
+        description="why it ended, when there is more to say: stop, fault, what the gripper holds; "
+        "short of its goal, how far and every limit that held the port back, longest first "
+        "(`port 245.7 mm and 20.5 deg from its goal; limited: singularity (7.44 s), joint_limit "
+        "(7.20 s; joint 5 at its upper end, +120 deg)`; also speed)",
     )
     sender: str | None = Field(
         None, description=f"who sent it, from the `{SENDER_HEADER}` request header; null if not said"
@@ -185,7 +187,9 @@ class RobotStateModel(BaseModel):
     manipulability: float = Field(description="sqrt(det(J J^T)); the DLS damps below 0.012")
     faults: int = Field(description="simulation faults since start (each reset the scene)")
     limited: str | None = Field(
-        None, description="what holds the motion back now: singularity, joint_limit or speed; null if none"
+        None,
+        description="what holds the motion back now: singularity, joint_limit or speed (the first, "
+        "when several do: a command's detail names them all); null if none",
     )
     bodies: dict[str, list[float]] = Field(
         default_factory=dict, description="moving bodies' poses [x y z (m), qw qx qy qz], base frame"

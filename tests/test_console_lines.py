@@ -53,6 +53,7 @@ def monitor_fields(**more: object) -> dict[str, object]:
 def test_the_force_monitor_never_passes_silently_on_the_bar() -> None:
     def shown(**more: object) -> str:
         state = {**state_fields(Simulation("free_space"), []), "seq": 7, "sent_at": 100.0, "instance": "a"}
+        state["active_command"] = more.pop("active_command", 3)
         state["monitor"] = monitor_fields(**more)
         inputs = BarInputs(state, 100.1, True, LinkLine("fresh", "link round trip 0 s"), 0.0, "", "")
         return str(_render(inputs, 0.1, "fresh"))
@@ -64,6 +65,8 @@ def test_the_force_monitor_never_passes_silently_on_the_bar() -> None:
     blind = shown(judging=False, not_judging="normal force 1.8 N < 3.3 N")
     assert 'data-state="blind"' in blind and "<b>not judging</b> (normal force 1.8 N &lt; 3.3 N)" in blind
     assert 'data-state="anomaly"' in shown(anomaly=True, not_judging=None)
+    ended = shown(active_command=None, judging=True)  # the last behavior's, kept in telemetry
+    assert "force monitor (last command, ended): judging" in ended and 'data-running="0"' in ended
     # From a recording the reason is data, never markup.
     crafted = shown(not_judging='<img src=x onerror="alert(1)">')
     assert "<img" not in crafted and "&lt;img src=x" in crafted

@@ -2,6 +2,8 @@
 forgetting factor per parameter, and slides on the friction_step plate: the friction learned,
 a step in friction and a jam flagged `anomaly`, a plain slide left alone."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -185,10 +187,25 @@ def test_below_the_force_where_it_can_judge_it_says_so_instead_of_passing() -> N
     assert floor_n == pytest.approx(1.0 / 0.3, rel=0.05)  # band_min / mu: where mu |F_n| = 1 N
     assert not judge(monitor, 1.8, 0.6 * 1.8, 0.01, 10)  # the rough patch at 1.8 N: not seen...
     assert (
-        not monitor.judging and monitor.not_judging == f"normal force 1.8 N < {floor_n:.1f} N"
+        not monitor.judging and monitor.not_judging == f"normal force 1.80 N < {floor_n:.2f} N"
     )  # ...and said
     assert monitor.fields()["not_judging"] == monitor.not_judging
     assert not judge(monitor, 0.5, 0.0, 0.01, 1)  # lifted off: out of contact, said against 1 N
-    assert monitor.not_judging == "normal force 0.5 N < 1.0 N"
+    assert monitor.not_judging == "normal force 0.50 N < 1.00 N"
     assert judge(monitor, 6.0, 0.6 * 6.0, 0.01, 3)  # the same patch pressed at 6 N: flagged
     assert monitor.judging and monitor.not_judging is None
+
+
+def test_below_the_judging_floor_a_jam_is_still_an_anomaly() -> None:
+    monitor = FrictionMonitor(MonitorSpec(), control_dt_s=0.001)
+    for normal_n in np.linspace(4.0, 16.0, 60):
+        judge(monitor, normal_n, 0.3 * normal_n, 0.01, 1)
+    assert judge(monitor, 2.0, 5.0, 0.0, 3)  # 5 N tangential at 2 N normal: residual 4.4 N > 1 N
+    assert monitor.not_judging is not None and monitor.anomaly
+    # Learned nearly frictionless: no press makes a doubling show, so it never judges friction.
+    slippery = FrictionMonitor(MonitorSpec(), control_dt_s=0.001)
+    for normal_n in np.linspace(4.0, 16.0, 60):
+        judge(slippery, normal_n, 0.0, 0.01, 1)
+    assert slippery.judging_floor_n() == math.inf
+    assert not judge(slippery, 10.0, 0.5, 0.01, 5) and slippery.not_judging == "normal force 10.00 N < inf N"
+    assert judge(slippery, 10.0, 6.0, 0.01, 3)  # a 6 N jam at 10 N: still caught

@@ -14,6 +14,7 @@ from robot_sim.executor import CommandParams
 from robot_sim.gains import Gains
 from robot_sim.impact import impact_warnings
 from robot_sim.params import PtwlParams
+from robot_sim.ptwl_warnings import tolerance_warnings
 from robot_sim.task_frames import TaskFrames
 
 
@@ -47,7 +48,10 @@ def check_command(
         return _refused(field_errors(unknown_frames))
     warnings: list[str] = []
     if isinstance(validated, PtwlParams) and q_world_port is not None and gains_now is not None:
-        warnings = impact_warnings(validated, gains_now, q_world_port, frames)
+        warnings = [
+            *tolerance_warnings(validated),
+            *impact_warnings(validated, gains_now, q_world_port, frames),
+        ]
     return Check(warnings=warnings, params=validated)
 
 

@@ -17,7 +17,9 @@ def monitor_state(monitor: dict[str, Any]) -> str:
     return "judging" if monitor["judging"] else "learning"
 
 
-def monitor_html(monitor: dict[str, Any] | None) -> Markup:
+def monitor_html(monitor: dict[str, Any] | None, running: bool) -> Markup:
+    """`running`: a command is running now; if not, the monitor is the last behavior's, said so
+    and greyed (the robot keeps it in telemetry after the behavior ends)."""
     if not monitor:
         return Markup("")
     state = monitor_state(monitor)
@@ -28,6 +30,12 @@ def monitor_html(monitor: dict[str, Any] | None) -> Markup:
         "judging": Markup("judging · {} · within ±{:.2f} N").format(estimates, monitor["band"]),
         "learning": Markup("learning ({} samples)").format(monitor["samples_learned"]),
     }[state]
-    return Markup('<div id="ptwl-monitor" data-state="{}" style="color:{}">force monitor: {}</div>').format(
-        state, STATE_COLORS[state], said
+    return Markup(
+        '<div id="ptwl-monitor" data-state="{}" data-running="{}" style="color:{}">force monitor{}: {}</div>'
+    ).format(
+        state,
+        int(running),
+        STATE_COLORS[state] if running else "#868e96",
+        "" if running else " (last command, ended)",
+        said,
     )

@@ -168,7 +168,9 @@ def _render(inputs: BarInputs, age: float | None, level: Level) -> Markup:
             inputs.twin_note,
         ),
         task=_task_html(state.get("task") if state else None),
-        monitor=monitor_html(state.get("monitor") if state else None),
+        monitor=monitor_html(
+            state.get("monitor") if state else None, bool(state and state.get("active_command") is not None)
+        ),
     )
 
 

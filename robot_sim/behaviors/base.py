@@ -1,7 +1,8 @@
 """What every behavior shares: exit conditions, the report, and the interface the runner drives.
 
 A behavior only moves the attractor (and may set stiffness/damping at its start); the
-admittance controller does the rest. It starts from the attractor where it is (never jumps it)
+admittance controller does the rest. It starts from the attractor where it is (re-placed only
+so that new stiffness pulls as the old did: `AdmittanceController.change_gains`)
 and ends with exactly one exit condition, after which the attractor stays where it was, except
 after a wrench breach with `on_breach: limit`, where it is placed to hold the threshold.
 """

@@ -1,10 +1,11 @@
 """PTWL, Pose Target Wrench Limiting (paper 2.2.1).
 
 The goal is the port pose at start (+) the displacement; the attractor travels there from
-where it is now at constant velocity (linear in position, constant angular velocity in
-orientation) over `duration`. Starting from the current attractor, not the port, keeps a held
-force through the start, and makes a PTWL that pushes further after a breach breach again at
-once: the paper's "stuck" that RWE relieves (2.2.2).
+where it is now (re-placed first if the PTWL brings other stiffness, so the spring's pull is
+unchanged: `AdmittanceController.change_gains`) at constant velocity (linear in position,
+constant angular velocity in orientation) over `duration`. Starting from the current
+attractor, not the port, keeps a held force through the start, and makes a PTWL that pushes
+further after a breach breach again at once: the paper's "stuck" that RWE relieves (2.2.2).
 
 Exits: `wrench_breach` when |f| or |tau| passes its threshold (checked first: safety before
 success; then `on_breach` says where the attractor goes), `goal_reached` when the port is

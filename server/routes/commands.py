@@ -53,7 +53,7 @@ async def submit_command(
     ends); commands run in order, one at a time.
 
     `warnings` says what is accepted but worth knowing (an approach that will overshoot the
-    force threshold on impact)."""
+    force threshold on impact, a move within its tolerances, a goal the arm cannot reach)."""
 
     def admit() -> CommandAccepted:
         """(simulation thread) Checked against the scene, its frames and the gains as they are,
@@ -68,10 +68,9 @@ async def submit_command(
         unknown_frames = sim.frames.unknown_errors(params)
         if unknown_frames:
             raise RequestValidationError(unknown_frames)
+        # Before the queue: a check that failed after it would answer 500 for a queued command.
+        warnings = ptwl_warnings(params, sim) if isinstance(params, PtwlParams) else []
         record = book.submit(params, sender)
-        warnings: list[str] = []
-        if isinstance(params, PtwlParams):
-            warnings = ptwl_warnings(params, sim)
         return CommandAccepted(id=record.id, instance=record.instance, warnings=warnings)
 
     return await on_sim_thread(runner, admit)
