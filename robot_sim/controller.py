@@ -172,10 +172,14 @@ class AdmittanceController:
         self.manipulability = 0.0
         self.speed_scale = 1.0  # last uniform scale applied for joint speed limits (<= 1)
         self.limits: tuple[Limit, ...] = ()  # every limit that held the motion back this tick
-        self.limited: Limit | None = None  # the first of them (telemetry's `limited`), if any
         # the joints slowed at an end of their range this tick: (index, "lower" | "upper")
         self.joints_held: tuple[tuple[int, str], ...] = ()
         self.set_gains(gains)
+
+    @property
+    def limited(self) -> Limit | None:
+        """The first limit that held the motion back this tick (telemetry's `limited`), if any."""
+        return self.limits[0] if self.limits else None
 
     # ----------------------------------------------------------------------------- gains
     def change_gains(self, gains: Gains) -> None:
@@ -186,12 +190,7 @@ class AdmittanceController:
         robot was in contact with non-zero forces" (2.3.2). Moving, the spring's pull (B v) is
         kept too, so a change mid-move neither stops nor reverses the arm. The same stiffness in
         the same axes (damping alone, or the same gains) leaves the attractor where it is."""
-        if gains.same_as(self.gains):
-            return
-        same_spring = gains.frame == self.gains.frame and np.array_equal(
-            gains.stiffness, self.gains.stiffness
-        )
-        same_spring = same_spring and np.array_equal(gains.fixed_axes_world(), self.gains.fixed_axes_world())
+        same_spring = gains.same_spring_as(self.gains)
         spring_world = self.stiffness_world() @ self.stretch_world()
         self.set_gains(gains)
         if self.enabled and not same_spring:
@@ -348,10 +347,9 @@ class AdmittanceController:
         # Slow commands far from limits and singularities need no limiting (the common case).
         if mujoco.mju_norm(qdot) > FAST_REFRESH_SPEED or self._refresh_every_tick or self._near_joint_limit:
             self.limits = self._limit_joint_motion(qdot, previous=self._ctrl_vel)
-            self.limited = self.limits[0] if self.limits else None
         else:
             self.speed_scale = 1.0
-            self.limits, self.limited, self.joints_held = (), None, ()
+            self.limits, self.joints_held = (), ()
         self._ctrl_vel[:] = qdot
 
     def _limit_joint_motion(self, qdot: np.ndarray, previous: np.ndarray) -> tuple[Limit, ...]:
@@ -365,12 +363,11 @@ class AdmittanceController:
         # sudden attractor jump) decelerates the arm over tens of ms instead of a few.
         np.clip(qdot, previous - self._max_dqdot, previous + self._max_dqdot, out=qdot)
         self.joints_held = self._taper_at_joint_limits(qdot) if self._near_joint_limit else ()
-        held = (
+        return (
             (Limit.SINGULARITY,) * (self.manipulability < MANIPULABILITY_THRESHOLD)
             + (Limit.JOINT_LIMIT,) * bool(self.joints_held)
             + (Limit.SPEED,) * (peak > 1.0)
         )
-        return held
 
     def _taper_at_joint_limits(self, qdot: np.ndarray) -> tuple[tuple[int, str], ...]:
         """Slow each joint toward its limit linearly over the last margin: it stops, never hits.

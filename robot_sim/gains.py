@@ -36,10 +36,6 @@ class Gains:
         """The same diagonal, in other axes (a task frame's come with its rotation)."""
         return Gains(self.stiffness, self.damping, frame, R_world_axes)
 
-    def same_as(self, other: "Gains") -> bool:
-        """The same diagonals in the same axes."""
-        return self.same_spring_as(other) and np.array_equal(self.damping, other.damping)
-
     def same_spring_as(self, other: "Gains") -> bool:
         """The same stiffness in the same axes (damping aside)."""
         return (

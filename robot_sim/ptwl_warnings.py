@@ -6,10 +6,12 @@ import math
 import numpy as np
 
 from robot_sim.behaviors.ptwl import ptwl_goal
+from robot_sim.gains import Gains
 from robot_sim.impact import impact_warnings
 from robot_sim.params import PtwlParams
 from robot_sim.reach import reach_warnings
 from robot_sim.sim import Simulation
+from robot_sim.task_frames import TaskFrames
 
 
 def ptwl_warnings(params: PtwlParams, sim: Simulation) -> list[str]:
@@ -18,10 +20,17 @@ def ptwl_warnings(params: PtwlParams, sim: Simulation) -> list[str]:
     ctl = sim.controller
     p_world_goal, q_world_goal = ptwl_goal(ctl.p_world_port, ctl.q_world_port, params, sim.frames)
     return [
-        *tolerance_warnings(params),
-        *impact_warnings(params, ctl.gains, ctl.q_world_port, sim.frames),
+        *move_warnings(params, ctl.gains, ctl.q_world_port, sim.frames),
         *reach_warnings(sim.model, sim.data, sim.layout, p_world_goal, q_world_goal),
     ]
+
+
+def move_warnings(
+    params: PtwlParams, current: Gains, q_world_port: "list[float] | np.ndarray", frames: TaskFrames
+) -> list[str]:
+    """The warnings judged without the arm's joints (the console's check line before Send gives
+    these; the reach check needs the robot): the arguments as for `impact_warnings`."""
+    return [*tolerance_warnings(params), *impact_warnings(params, current, q_world_port, frames)]
 
 
 def tolerance_warnings(params: PtwlParams) -> list[str]:

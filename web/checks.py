@@ -12,9 +12,8 @@ from pydantic import ValidationError
 from robot_sim.command_request import COMMAND, error_detail, field_errors
 from robot_sim.executor import CommandParams
 from robot_sim.gains import Gains
-from robot_sim.impact import impact_warnings
 from robot_sim.params import PtwlParams
-from robot_sim.ptwl_warnings import tolerance_warnings
+from robot_sim.ptwl_warnings import move_warnings
 from robot_sim.task_frames import TaskFrames
 
 
@@ -48,10 +47,7 @@ def check_command(
         return _refused(field_errors(unknown_frames))
     warnings: list[str] = []
     if isinstance(validated, PtwlParams) and q_world_port is not None and gains_now is not None:
-        warnings = [
-            *tolerance_warnings(validated),
-            *impact_warnings(validated, gains_now, q_world_port, frames),
-        ]
+        warnings = move_warnings(validated, gains_now, q_world_port, frames)
     return Check(warnings=warnings, params=validated)
 
 
