@@ -69,6 +69,19 @@ def test_markup_in_every_outside_string_shows_as_text(browser: object, stack: An
         httpx.put(link.url + "/_link/profile", json={"description": ""}).raise_for_status()
 
 
+MONITOR = {  # a force monitor's telemetry (robot_sim/task_monitor.py), its reason crafted
+    "model": "friction",
+    "mu": 0.3,
+    "c": 0.0,
+    "normal_force": 1.8,
+    "tangential_force": 0.5,
+    "predicted": 0.54,
+    "residual": -0.04,
+    "band": 1.0,
+    "judging": False,
+    "anomaly": False,
+    "samples_learned": 40,
+}
 SPEC = TrialSpec("quick_connect", "onboard", 0.0, 0.0, 0.0, 0, think_s=0.0)
 
 
@@ -76,7 +89,7 @@ def _crafted(source: Path, out: Path) -> int:
     """`source` as an attacker would edit it: markup in every /commands message's sender, detail
     and steps, and in each state's task predicate and unit; how many command messages were
     edited."""
-    edited = 0
+    edited = 0  # (and a force monitor on each state, markup in why it is not judging)
     with source.open("rb") as f_in, out.open("wb") as f_out:
         reader = make_reader(f_in)
         writer = Writer(f_out)
@@ -99,6 +112,7 @@ def _crafted(source: Path, out: Path) -> int:
             if channel.topic == "/ptwl/telemetry" and json.loads(data).get("task"):
                 state = json.loads(data)
                 state["task"]["predicate"], state["task"]["unit"] = PAYLOADS[1], PAYLOADS[2]
+                state["monitor"] = {**MONITOR, "not_judging": PAYLOADS[3]}
                 data = json.dumps(state).encode()
             if channel.topic == "/commands":
                 event = json.loads(data)
@@ -133,6 +147,7 @@ def test_markup_in_a_crafted_recording_shows_as_text_in_replay(browser: object, 
             assert PAYLOADS[0].split(" ")[0] in page.locator("#ptwl-history").inner_text()
             task = page.locator("#ptwl-task")
             assert task.get_attribute("title") == PAYLOADS[1] and PAYLOADS[2] in task.inner_text()
+            assert PAYLOADS[3] in page.locator("#ptwl-monitor").inner_text()  # the monitor's reason
             time.sleep(0.5)  # an injected handler would have fired by now
             _no_injected_markup(page)
         finally:
