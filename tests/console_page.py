@@ -4,7 +4,6 @@ The 3D scene is WebGL, which the DOM cannot see, so the console mirrors what it 
 status lines (data-* attributes and text), updated in the same batch as the scene; these read them.
 """
 
-import contextlib
 import io
 import re
 
@@ -62,10 +61,18 @@ def _ready(page, control: bool):  # type: ignore[no-untyped-def]
 def take_control(page) -> None:  # type: ignore[no-untyped-def]
     """Take control; from another page that holds it, through the confirmation it asks for."""
     page.get_by_role("button", name="Take control").click()
-    confirm = page.get_by_role("button", name="Take control from them")
-    with contextlib.suppress(Exception):  # nobody held control: no confirmation was asked
-        confirm.click(timeout=1_000)
-    until(page, "document.querySelector('#ptwl-control')?.dataset.mine === '1'", timeout=10_000)
+    # Control, or the question whether to take it from another operator: whichever comes first
+    # (waiting a fixed second for a question that nobody asks cost every page a second).
+    asked = f"[...document.querySelectorAll('button')].some(b => b.innerText.includes('{TAKE_FROM}'))"
+    until(page, f"{MINE} || {asked}")
+    confirm = page.get_by_role("button", name=TAKE_FROM)
+    if confirm.count():
+        confirm.click()
+    until(page, MINE, timeout=10_000)
+
+
+MINE = "document.querySelector('#ptwl-control')?.dataset.mine === '1'"
+TAKE_FROM = "Take control from them"
 
 
 def inputs_for(page, label: str):  # type: ignore[no-untyped-def]
@@ -91,11 +98,25 @@ def wait_status(page, wanted: str, timeout_s: float = 30.0, after: str | None = 
     """Wait until the command line shows `wanted` for a command other than `after` (the id shown
     before sending: the line is shared, so it may still show an earlier command's exit)."""
     newer = f" && el.dataset.id !== '{after}'" if after is not None else ""
-    until(
-        page,
-        f"(() => {{ const el = document.querySelector('#ptwl-command');"
-        f" return el && el.dataset.status === '{wanted}'{newer}; }})()",
-        timeout=timeout_s * 1000,
+    try:
+        until(
+            page,
+            f"(() => {{ const el = document.querySelector('#ptwl-command');"
+            f" return el && el.dataset.status === '{wanted}'{newer}; }})()",
+            timeout=timeout_s * 1000,
+        )
+    except Exception as timed_out:  # say what the page showed instead
+        shown = on_screen(page)
+        raise AssertionError(f"no {wanted!r} after {after!r} in {timeout_s} s; {shown}") from timed_out
+
+
+def on_screen(page) -> str:  # type: ignore[no-untyped-def]
+    """The command line, the bar and any notifications, as text (for a failing wait's message)."""
+    return page.evaluate(
+        """() => ['#ptwl-command', '#ptwl-bar', '.mantine-Notification-root']
+          .flatMap(s => [...document.querySelectorAll(s)])
+          .map(el => (el.id ? el.id + ' ' + JSON.stringify({...el.dataset}) + ': ' : '') + el.innerText)
+          .join(' | ')"""
     )
 
 

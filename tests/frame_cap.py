@@ -1,4 +1,5 @@
-"""The test browser draws the 3D view at most FRAME_CAP_HZ times a second.
+"""The test browser draws the 3D view at most FRAME_CAP_HZ times a second, at VIEW_DPR pixels per
+CSS pixel.
 
 Measured on a 2-core machine (Debian Chromium, no GPU, WebGL in software): each frame of the
 console's view costs ~45 ms of CPU in Chromium's GPU process, and viser keeps drawing for 250 ms
@@ -11,13 +12,27 @@ is measured uncapped by `python -m bench.console`.
 The cap wraps the page's requestAnimationFrame (viser's render loop and its message drain both
 run on it). Playwright's actionability checks run in an isolated world, which this does not
 touch; `wait_for_function` runs in the page's world but polls on a timer here (console_page.py's
-`until`), not on frames."""
+`until`), not on frames.
+
+Software WebGL's cost is mostly per pixel: the same page while the arm moved took 9.5 s of the
+browser's CPU in 8 s at viser's default resolution, 7.6 s at half (`fixedDpr`, viser's own
+development setting, read from the page's query string before its scripts run; the init script
+adds it to the address in place, keeping any query the test gave). The view is the same scene,
+scaled up by the compositor: screenshots keep their size and the markers their colours."""
 
 from typing import Any
 
 FRAME_CAP_HZ = 10
+VIEW_DPR = 0.5
 
 CAP_SCRIPT = """{
+  try {  // not on pages whose address cannot be rewritten (about:blank): the cap still runs
+    const query = new URLSearchParams(location.search);
+    if (window.top === window && location.protocol.startsWith('http') && !query.has('fixedDpr')) {
+      query.set('fixedDpr', 'VIEW_DPR');
+      history.replaceState(history.state, '', location.pathname + '?' + query + location.hash);
+    }
+  } catch (err) { reportError(err); }
   const minIntervalMs = MIN_INTERVAL_MS;
   const nativeRaf = window.requestAnimationFrame.bind(window);
   let waiting = new Map();
@@ -45,7 +60,7 @@ CAP_SCRIPT = """{
     return id;
   };
   window.cancelAnimationFrame = (id) => { waiting.delete(id); running.delete(id); };
-}""".replace("MIN_INTERVAL_MS", str(1000 // FRAME_CAP_HZ))
+}""".replace("MIN_INTERVAL_MS", str(1000 // FRAME_CAP_HZ)).replace("VIEW_DPR", str(VIEW_DPR))
 
 
 class CappedBrowser:

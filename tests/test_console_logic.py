@@ -394,6 +394,20 @@ def test_the_force_arrow_ends_at_the_port_from_outside(console: ConsoleApp) -> N
     assert tail[2] < head[2] - 0.05  # from below, outside the tool (which runs up from the port)
 
 
+def test_a_still_robot_sends_the_page_nothing_and_a_move_says_so(console: ConsoleApp) -> None:
+    """Each message to the page is a re-render there: a state that moves nothing on screen moves
+    nothing and says so (on main the scene's mirror was re-sent with every state, ~50 layouts a
+    second of a still page); a state that moves the port says so too."""
+    wait_for_state(console)
+    latest = console.link.latest()[0]
+    assert console.view is not None and latest is not None
+    console.view.update(latest)
+    assert console.view.update({**latest, "seq": latest["seq"] + 1}) is False
+    port = latest["port"]
+    moved = {**port, "position": [p + 0.001 for p in port["position"]]}
+    assert console.view.update({**latest, "port": moved}) is True
+
+
 def test_fixtures_are_see_through_and_the_markers_opaque(console: ConsoleApp) -> None:
     """On main a press target inside the plate was hidden by it: the fixtures are now drawn
     see-through and the markers opaque, which three.js draws first, so they show through."""

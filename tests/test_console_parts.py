@@ -160,3 +160,36 @@ def test_playback_asks_the_playhead_paused_or_playing() -> None:
     assert Playback._paused_at_s(cast(Any, at)) == 4.25
     at.status = {"playing": True, "position_s": 4.25}
     assert Playback._paused_at_s(cast(Any, at)) is None
+
+
+def test_a_seek_goes_where_the_browser_moved_the_slider_though_the_poll_moved_it_back() -> None:
+    """viser sets a moved slider's value, awaits its async callbacks, then runs the others on its
+    thread pool; the playhead's poll (another thread) may set the old position in between. On
+    main the seek read the slider when its thread ran, and went back to where the playhead was."""
+    import asyncio
+    import inspect
+    from types import SimpleNamespace
+    from typing import Any, cast
+
+    from web.replay_timeline import Timeline
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        seeks: list[float] = []
+        status = {"duration_s": 20.0, "position_s": 19.0}
+        timeline = Timeline(server.gui, server.gui.add_folder("Replay"), status, seeks.append)
+        slider = cast(Any, timeline)._slider
+        event = viser.GuiEvent(cast(Any, SimpleNamespace()), 1, slider)
+        slider._impl.value = 7.5  # the browser's move, as viser applies it
+        later = []
+        for callback in slider._impl.update_cb:
+            if inspect.iscoroutinefunction(callback):
+                asyncio.run(callback(event))
+            else:
+                later.append(callback)
+        timeline.show({**status, "position_s": 19.0})  # the poll, answered before the seek
+        for callback in later:  # the pool's turn
+            callback(event)
+        assert seeks == [7.5]
+    finally:
+        server.stop()

@@ -157,8 +157,10 @@ class ConsoleApp:
         if previous is None or state["gains"] != previous["gains"]:
             self.board.show_gains(state["gains"])
         with self.server.atomic():
-            self.view.update(state)
-            self.board.show_scene_state(state["seq"], arrived)
+            # The mirror follows the scene: a still robot sends nothing, and its page lays
+            # nothing out (re-sent with each state it cost the page ~50 layouts/s).
+            if self.view.update(state) or self.board.scene_state_unset:
+                self.board.show_scene_state(state["seq"], arrived)
         self.desks.state_arrived()
         self.board.plot_state(state["sim_time"], state["wrench"])
 

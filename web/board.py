@@ -19,9 +19,10 @@ class Board:
         self.command_status = add_html(gui, _command_html(None), order=BOARD_ORDER)
         self.commanded = add_html(gui, _commanded_html(None), order=BOARD_ORDER + 0.5)
         self.gains = add_html(gui, Markup('<div id="ptwl-gains"></div>'), order=BOARD_ORDER + 0.6)
-        # Which state the 3D scene shows, sent in the same atomic batch as the scene (tests and
-        # bench/console.py read it; the status bar shows the age on its own clock).
+        # Which state the 3D scene last moved to, sent in the same atomic batch as the scene
+        # (tests and bench/console.py read it; the status bar shows the age on its own clock).
         self.scene_state = add_html(gui, _scene_state_html(None, None), order=BOARD_ORDER + 0.7)
+        self.scene_state_unset = True
         with gui.add_folder("Force / torque", expand_by_default=True, order=BOARD_ORDER + 1):
             self.plots = WrenchPlots(gui, plot_window_s)
         with gui.add_folder("Commands", expand_by_default=True, order=BOARD_ORDER + 2):
@@ -48,6 +49,7 @@ class Board:
         show(self.command_status, _command_html(view))
 
     def show_scene_state(self, seq: int, arrived: float) -> None:
+        self.scene_state_unset = False
         show(self.scene_state, _scene_state_html(seq, arrived))
 
     def show_gains(self, gains: dict[str, Any] | None) -> None:

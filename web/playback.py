@@ -42,6 +42,11 @@ class Playback(Worker):
         self._on_jump = on_jump
         self._plots = ReplayPlots(plots)
         self.status = status
+        # viser runs each slider update on a thread of its pool: two seeks in quick succession
+        # would interleave (the plots filled for one, the playhead at the other). One at a time;
+        # a poll answered across a seek is older than it and is not shown.
+        self._seeking = threading.Lock()
+        self._seeks = 0
         speeds = [f"{s:g}x" for s in status["speeds"]]
         with gui.add_folder("Replay", expand_by_default=True, order=PLAYBACK_ORDER) as folder:
             self.title = add_html(gui, _title_html(status))
@@ -102,17 +107,21 @@ class Playback(Worker):
 
     def _seek(self, position_s: float) -> None:
         # The slider's end is the duration rounded down to its step: there, seek to the very end.
-        end_s = self.status["duration_s"]
-        status = self.put(position_s=end_s if position_s >= slider_end(end_s) else position_s)
-        self._on_jump()
-        if status is not None:  # its answer, not `self.status`: a poll answered late may be older
-            self._plots.fill(float(status["position_s"]))
+        with self._seeking:
+            self._seeks += 1
+            end_s = self.status["duration_s"]
+            status = self.put(position_s=end_s if position_s >= slider_end(end_s) else position_s)
+            self._on_jump()
+            if status is not None:  # its answer, not `self.status`: a poll answered late may be older
+                self._plots.fill(float(status["position_s"]))
 
     def _run(self) -> None:
         while not self._closed.wait(POLL_S):
+            seeks = self._seeks
             status = self._api.get()
-            if status is not None:
-                self._show(status)
+            with self._seeking:
+                if status is not None and seeks == self._seeks:
+                    self._show(status)
 
     def _show(self, status: dict[str, Any]) -> None:
         self.status = status

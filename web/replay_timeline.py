@@ -28,6 +28,7 @@ class Timeline:
         self._lock = threading.Lock()  # the poll and the reader both change the slider
         self._marked: list[CommandSpan] | None = None  # the commands marked on the timeline
         self._note = "reading the recording"
+        self._requested_s = 0.0  # [s] where a browser last moved the slider
         with folder:
             self._slider = self._add_slider()
             self._strip = add_html(gui, self._strip_html())
@@ -41,10 +42,18 @@ class Timeline:
             initial_value=0.0,
         )
 
+        # viser sets the value, then awaits async callbacks at once and hands the others to its
+        # thread pool: the value is read here, before the poll (another thread) can set the
+        # playhead's older position over it, and the seek (blocking HTTP) runs on the pool.
+        @slider.on_update
+        async def _(event: viser.GuiEvent) -> None:
+            if event.client is not None:
+                self._requested_s = float(slider.value)
+
         @slider.on_update
         def _(event: viser.GuiEvent) -> None:
             if event.client is not None:  # a browser moved it: seek
-                self._on_seek(float(slider.value))
+                self._on_seek(self._requested_s)
 
         return slider
 

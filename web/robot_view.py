@@ -94,32 +94,36 @@ class RobotView:
         self.arm.load(geometry)
 
     # ------------------------------------------------------------ telemetry
-    def update(self, state: dict) -> None:
-        """Move everything to a telemetry state (call inside server.atomic()).
+    def update(self, state: dict) -> bool:
+        """Move everything to a telemetry state (call inside server.atomic()); True if anything
+        moved.
 
         Only what moved is sent: every assignment is a message to every browser."""
         with self._lock:
-            self._update(state)
+            return self._update(state)
 
-    def _update(self, state: dict) -> None:
+    def _update(self, state: dict) -> bool:
+        moved = False
         for name, pose in state.get("bodies", {}).items():
             frame = self.arm.frames.get(name)
             if frame is not None:
-                self._place(name, frame, pose[0:3], pose[3:7])
+                moved |= self._place(name, frame, pose[0:3], pose[3:7])
         port, attractor = state["port"], state["attractor"]
-        self._place("/port", self.port, port["position"], port["quaternion"])
-        self._place("/attractor", self.attractor, attractor["position"], attractor["quaternion"])
+        moved |= self._place("/port", self.port, port["position"], port["quaternion"])
+        moved |= self._place("/attractor", self.attractor, attractor["position"], attractor["quaternion"])
         tip = np.asarray(port["position"], dtype=float)
         force = np.asarray(state["wrench"][0:3], dtype=float)
         # The environment's force on the port, drawn ending at the port: from outside the tool.
         arrow = np.stack([tip - force * self.arrow_m_per_n, tip])[None]
         if self._sent.moved("/wrench", arrow.ravel()):
             self.wrench.points = arrow
+            moved = True
         if self._sent.moved("/port-line", tip):
             self.commanded.port_moved(tip)
+        return moved
 
-    def _place(self, key: str, handle: viser.FrameHandle, position: list, wxyz: list) -> None:
-        self._sent.place(key, handle, np.array([*position, *wxyz], dtype=float))
+    def _place(self, key: str, handle: viser.FrameHandle, position: list, wxyz: list) -> bool:
+        return self._sent.place(key, handle, np.array([*position, *wxyz], dtype=float))
 
     def show_commanded(self, target: PoseArrays | None, resolved: bool = False) -> None:
         """The commanded target: solid where the robot resolved it, an outline where it is only
