@@ -365,6 +365,11 @@ class DitherParams(Expiring):
         0.01, description="[m] distance along the axis"
     )
     duration: Duration = Field(4.0, description="[s] time to cover `travel`, (0, 600]")
+    progress: Annotated[float, _range(0.0, limits.MAX_TRANSLATION_M, "m", lo_open=True)] | None = Field(
+        None,
+        description="[m] the port's advance along the axis that ends it `goal_reached` (a jam freed), "
+        "<= travel; default travel",
+    )
     force_threshold: ForceThreshold = Field(30.0, description="[N] <= 500")
     torque_threshold: TorqueThreshold = Field(3.0, description="[N m] <= 50")
     watchdog: Duration | None = Field(None, description="[s] >= duration; default duration + 5")
@@ -394,6 +399,10 @@ class DitherParams(Expiring):
             self.watchdog = self.duration + 5.0
         elif self.watchdog < self.duration:
             raise ValueError(f"watchdog ({self.watchdog:g} s) must be >= duration ({self.duration:g} s)")
+        if self.progress is None:
+            self.progress = self.travel
+        elif self.progress > self.travel:
+            raise ValueError(f"progress ({self.progress:g} m) must be <= travel ({self.travel:g} m)")
         return self
 
 

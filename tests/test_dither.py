@@ -153,3 +153,30 @@ def test_explicit_fields_override_the_preset() -> None:
     assert from_preset == {name: value for name, value in preset.items() if name not in given}
     defaults = DitherParams()  # so the preset's fields are told from the model's defaults
     assert defaults.mode != params.mode == "translational" and defaults.travel != params.travel == 0.02
+
+
+def test_a_push_ends_on_its_progress_before_its_travel() -> None:
+    """`progress` ends a push `goal_reached` once the port has advanced that far (a jam that has
+    given), while the attractor still heads for the whole travel: in free space a 5 mm progress
+    of a 20 mm, 6 s push ends about a quarter of the way, not near the end (19 mm, at ~5.7 s)."""
+    sim = Simulation("free_space")
+    params = DitherParams(preset="torsional_push", progress=0.005)
+    assert params.travel == 0.02 and params.duration == 6.0
+    behavior = Dither(params)
+    p0 = sim.controller.p_world_port.copy()
+    report = sim.run_behavior(behavior)
+    assert report.exit is ExitCondition.GOAL_REACHED
+    advanced = float((np.array(report.final_port.position) - p0) @ behavior.axis_world)
+    assert 0.004 - 1e-4 <= advanced <= 0.0045  # within the travel tolerance (1 mm) of 5 mm
+    # The attractor ramps 20 mm over 6 s and the port lags it by tau = 0.5 s: 4 mm at ~1.7 s.
+    assert 1.2 < report.duration < 2.4
+    # Without it, the same push runs its whole travel.
+    assert sim.run_behavior(Dither(DitherParams(preset="torsional_push"))).duration > 5.0
+
+
+def test_progress_is_within_the_travel() -> None:
+    assert DitherParams(travel=0.02).progress == 0.02  # by default, the travel ends it
+    with pytest.raises(ValueError, match=r"progress \(0.03 m\) must be <= travel \(0.02 m\)"):
+        DitherParams(travel=0.02, progress=0.03)
+    with pytest.raises(ValueError, match="progress"):
+        DitherParams(progress=0.0)

@@ -54,7 +54,11 @@ def test_policy_recovers_a_short_insertion_and_gives_up_after_three() -> None:
         )
         twist = policy.next(at(0.022, ExitCondition.COMPLETED, "rwe"))
         assert isinstance(twist, Step) and isinstance(twist.params, DitherParams)
-        insert = policy.next(at(0.025, ExitCondition.TIMEOUT, "dither"))
+        assert twist.params.progress == 0.005  # it ends once the plug has gone 5 mm further in
+        # The twist's push is relieved before the insertion goes again from it.
+        again = policy.next(at(0.025, ExitCondition.TIMEOUT, "dither"))
+        assert isinstance(again, Step) and isinstance(again.params, RweParams)
+        insert = policy.next(at(0.025, ExitCondition.COMPLETED, "rwe"))
         assert isinstance(insert, Step) and insert.params == qc.INSERT
     gave_up = policy.next(at(0.022, ExitCondition.WRENCH_BREACH))
     assert isinstance(gave_up, Finish) and not gave_up.completed and "3 recoveries" in gave_up.why

@@ -70,14 +70,16 @@ def tilted(axis: int, degrees: float) -> Simulation:
 GRID = [(axis, sign * degrees) for axis in (0, 1) for degrees in (2, 3, 4) for sign in (1, -1)]
 
 
-def grid_point(axis: int, degrees: float) -> tuple[str, bool, int, str]:
-    """(the first PTWL's exit, inserted, behaviors used, the machine's end) for one tilt."""
+def grid_point(axis: int, degrees: float) -> tuple[str, bool, int, str, list[tuple[str, str, float, str]]]:
+    """(the first PTWL's exit, inserted, behaviors used, the machine's end, and each step as
+    (behavior, exit, duration [s], why)) for one tilt."""
     run = run_onboard("sleeve_on_peg", sim=tilted(axis, degrees))
-    return run.steps[0].report.exit.value, run.success, len(run.steps), run.end
+    steps = [(s.report.behavior, s.report.exit.value, s.report.duration, s.why) for s in run.steps]
+    return run.steps[0].report.exit.value, run.success, len(run.steps), run.end, steps
 
 
 @functools.cache
-def recovery_grid() -> dict[tuple[int, float], tuple[str, bool, int, str]]:
+def recovery_grid() -> dict[tuple[int, float], tuple[str, bool, int, str, list[tuple[str, str, float, str]]]]:
     """(axis, tilt [deg]) -> grid_point: each point is its own simulation, so they run on every
     core (the grid is most of this module's time)."""
     with ProcessPoolExecutor(max_workers=os.cpu_count()) as pool:
@@ -100,12 +102,30 @@ def test_tilts_of_2_to_4_degrees_jam_and_plain_ptwl_keeps_jamming() -> None:
 
 def test_the_state_machine_recovers_at_least_9_of_10_jams_over_the_grid() -> None:
     outcome = recovery_grid()
-    recovered = sum(success for _, success, _, _ in outcome.values())
+    recovered = sum(success for _, success, _, _, _ in outcome.values())
     assert recovered >= 0.9 * len(outcome), outcome
     # It used the recovery (RWE, Dither, PTWL rounds), not luck on the first PTWL.
-    assert all(used >= 4 for _, _, used, _ in outcome.values())
+    assert all(used >= 4 for _, _, used, _, _ in outcome.values())
     # Its own verdict, from travel alone, agrees with the scene's predicate it never sees.
-    assert all((end == "completed") == success for _, success, _, end in outcome.values()), outcome
+    assert all((end == "completed") == success for _, success, _, end, _ in outcome.values()), outcome
+
+
+def test_each_recovery_phase_does_its_part() -> None:
+    """Issue 29 point 5, over the grid. On main every "insert again" started from the push the
+    twist left and 17 of 36 breached in their first 10 ms (28-33 N against 25 N), and 33 of 36
+    twists ran to their 11 s watchdog: now a relief comes between, and a twist ends once the
+    sleeve has given 5 mm."""
+    steps = [step for *_, run in recovery_grid().values() for step in run]
+    rounds = [i for i, (behavior, *_) in enumerate(steps) if behavior == "dither"]
+    assert len(rounds) >= 24  # the grid's 12 tilts each need at least two rounds
+    for i in rounds:  # relieve, twist, relieve, insert again: in that order, every round
+        assert [b for b, *_ in steps[i - 1 : i + 3]] == ["rwe", "dither", "rwe", "ptwl"], steps[i - 1 : i + 3]
+    inserts_again = [steps[i + 2] for i in rounds]
+    assert all(duration >= 0.05 for _, _, duration, _ in inserts_again), inserts_again
+    twists = [steps[i] for i in rounds]
+    on_watchdog = [twist for twist in twists if twist[1] == "timeout"]
+    assert len(on_watchdog) <= 0.2 * len(twists), on_watchdog  # 4 of 35 measured
+    assert all(duration < 11.0 for _, exit_, duration, _ in twists if exit_ == "goal_reached")
 
 
 def test_one_degree_is_absorbed_by_the_compliance() -> None:

@@ -57,7 +57,9 @@ def test_sleeve_policy_recovers_a_jam_with_rwe_dither_ptwl_and_gives_up_after_fo
         twist = policy.next(report(ExitCondition.COMPLETED, 0.026, "rwe"))
         assert isinstance(twist, Step) and isinstance(twist.params, DitherParams)
         assert twist.params.mode == "torsional" and twist.params.direction == "push"
-        insert = policy.next(report(ExitCondition.WRENCH_BREACH, 0.030, "dither"))  # a dither's breach: go on
+        again = policy.next(report(ExitCondition.WRENCH_BREACH, 0.030, "dither"))  # a dither's breach: go on
+        assert isinstance(again, Step) and isinstance(again.params, RweParams)  # its push relieved first
+        insert = policy.next(report(ExitCondition.COMPLETED, 0.030, "rwe"))
         assert isinstance(insert, Step) and insert.params == sleeve.INSERT
     gave_up = policy.next(report(ExitCondition.WRENCH_BREACH, 0.027))
     assert isinstance(gave_up, Finish) and not gave_up.completed and "4 recoveries" in gave_up.why
@@ -112,11 +114,12 @@ def test_machine_report_sums_up_its_steps() -> None:
     machine.advance(report(ExitCondition.WRENCH_BREACH, 0.02, peak=31.0))
     machine.advance(report(ExitCondition.COMPLETED, 0.02, "rwe", peak=4.0))
     machine.advance(report(ExitCondition.GOAL_REACHED, 0.04, "dither", peak=12.0))
+    machine.advance(report(ExitCondition.COMPLETED, 0.04, "rwe", peak=12.0))
     assert machine.advance(report(ExitCondition.TIMEOUT, 0.058, peak=19.0)) is None
     whole = machine.report()
     assert whole.exit is ExitCondition.COMPLETED and whole.peak_force == 31.0
     metrics = run_module.trial_metrics(machine.steps)
-    assert metrics["behaviors"] == 4 and metrics["rwe"] == 1 and metrics["dither"] == 1
+    assert metrics["behaviors"] == 5 and metrics["rwe"] == 2 and metrics["dither"] == 1
     assert metrics["ptwl"] == {"timeout": 1, "goal_reached": 0, "wrench_breach": 1}
 
 

@@ -14,7 +14,9 @@ The wiggle's amplitude ramps in over its first cycle, so the attractor never jum
 wobble of the axis was tried as a third mode and dropped: it recovered 1 of 12 sleeve jams
 where the paper's twist recovers 12 of 12; see robot_sim/policies/sleeve_on_peg.py.)
 Exits: `wrench_breach` (thresholds, then `on_breach`), `goal_reached` when the port has moved
-the travel from where it was at start (to within TRAVEL_TOLERANCE_M), `timeout` at the watchdog.
+`progress` (default: the travel) from where it was at start (to within TRAVEL_TOLERANCE_M): a
+push that should end once a jam frees advances the attractor by `travel` but stops on a shorter
+`progress`; `timeout` at the watchdog.
 """
 
 import math
@@ -76,7 +78,8 @@ class Dither(Behavior):
         p = self.params
         if wrench_breached(ctl, p.force_threshold, p.torque_threshold):
             return end_breach(ctl, p.on_breach, p.force_threshold, p.torque_threshold)
-        if self.progress(ctl) >= p.travel - TRAVEL_TOLERANCE_M:
+        assert p.progress is not None
+        if self.progress(ctl) >= p.progress - TRAVEL_TOLERANCE_M:
             return ExitCondition.GOAL_REACHED
         elapsed = t - self._t0
         assert p.watchdog is not None

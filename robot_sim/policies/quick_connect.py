@@ -5,8 +5,8 @@
               latched seat builds, so the PTWL ends soon after the snap
               -> the port went past SEATED_M: latched; relieve
               -> it stopped short (a jam at the mouth, or the collar not pushed through): recover
-    recover   RWE (all axes), Dither torsional_push (turn while advancing), insert again;
-              after `max_recoveries` (3): failed
+    recover   RWE (all axes), Dither torsional_push (turn while advancing, until the port has
+              gone 5 mm further in), RWE, insert again; after `max_recoveries` (3): failed
     relieve   RWE: the seating force goes, the latch holds; completed
 
 Depth is judged by how far the port has travelled down the tool axis since the start (the
@@ -32,7 +32,8 @@ class QuickConnectSettings(InsertionSettings):
 class QuickConnect(InsertionPolicy):
     task = "quick_connect"
     summary = (
-        "insert at 35 N (the latch needs 25-30 N); on a jam relieve, twist-dither, insert again; relieve"
+        "insert at 35 N (the latch needs 25-30 N); on a jam relieve, twist-dither, relieve, "
+        "insert again; relieve"
     )
     settings_model = QuickConnectSettings
     # `medium` named: a state machine must not inherit whatever gains the last operator left.

@@ -11,7 +11,9 @@ degrees the 0.089 mm fit jams 3-7 mm in, and every further PTWL breaches at once
     recover   RWE (all axes)                    relieve the jam's wrench
               Dither torsional_push             turn +-0.1 rad about the sleeve axis at 1 Hz while
                                                 advancing 20 mm: the turning breaks the wedging
-                                                friction and the sleeve walks in and straightens
+                                                friction and the sleeve walks in and straightens;
+                                                it ends once the port has gone 5 mm further in
+              RWE (all axes)                    relieve the twist's push
               then insert again; after `max_recoveries` (4) jams in a row: failed
 
 It judges depth only by how far the port has travelled down the tool axis since the start (the
@@ -37,7 +39,7 @@ class SleeveSettings(InsertionSettings):
 
 class SleeveOnPeg(InsertionPolicy):
     task = "sleeve_on_peg"
-    summary = "insert (PTWL); on a jam relieve (RWE), twist-dither and insert again, up to 4 times"
+    summary = "insert (PTWL); on a jam relieve (RWE), twist-dither, relieve and insert again, up to 4 times"
     settings_model = SleeveSettings
     # `medium` named: a state machine must not inherit whatever gains the last operator left.
     INSERT = PtwlParams(translation=[0.0, 0.0, 0.07], duration=7.0, force_threshold=25.0, preset="medium")
