@@ -406,6 +406,9 @@ def test_a_still_robot_sends_the_page_nothing_and_a_move_says_so(console: Consol
     port = latest["port"]
     moved = {**port, "position": [p + 0.001 for p in port["position"]]}
     assert console.view.update({**latest, "port": moved}) is True
+    name, pose = next(iter(latest["bodies"].items()))  # a body alone (the jaws closing, say)
+    bodies = {**latest["bodies"], name: [pose[0] + 0.001, *pose[1:]]}
+    assert console.view.update({**latest, "port": moved, "bodies": bodies}) is True
 
 
 def test_fixtures_are_see_through_and_the_markers_opaque(console: ConsoleApp) -> None:

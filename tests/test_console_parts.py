@@ -193,3 +193,41 @@ def test_a_seek_goes_where_the_browser_moved_the_slider_though_the_poll_moved_it
         assert seeks == [7.5]
     finally:
         server.stop()
+
+
+def test_a_playhead_polled_across_a_seek_is_not_shown() -> None:
+    """The poll asked where the playhead was, a seek moved it meanwhile, then the poll's older
+    answer came: on main it was shown, and the slider went back to where the playhead had been
+    until the next poll."""
+    from typing import Any
+
+    from web.playback import Playback
+
+    status = {"file": "/r.mcap", "duration_s": 20.0, "position_s": 19.0, "playing": False}
+    status |= {"speed": 1.0, "speeds": [1.0]}
+    playback: Any = None
+
+    class Api:
+        def get(self) -> dict[str, Any]:
+            playback._seek(5.0)  # the operator's seek lands while this answer is on its way
+            return {**status, "position_s": 19.0}
+
+        def put(self, **change: Any) -> dict[str, Any]:
+            return {**status, **change}
+
+    class OnePoll:
+        def __init__(self) -> None:
+            self.polls = 0
+
+        def wait(self, timeout: float) -> bool:
+            self.polls += 1
+            return self.polls > 1  # one round of the loop, then closed
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        playback = Playback(server.gui, Api(), status, on_jump=lambda: None)  # type: ignore[arg-type]
+        playback._closed = OnePoll()
+        playback._run()
+        assert playback.status["position_s"] == 5.0  # the seek's answer, not the older poll's
+    finally:
+        server.stop()
