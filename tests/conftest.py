@@ -84,14 +84,7 @@ def browser() -> Iterator[object]:
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """Every test that drives Chromium is marked `browser`, so `-m "not browser"` leaves them out.
-
-    Files with browser tests run first (each test in its file's order): they are the longest
-    (a robot, link, console and Chromium each), and with a file per worker (`--dist loadfile`)
-    the longest last would leave the other core idle at the end of the run."""
-    browser_files = set()
+    """Every test that drives Chromium is marked `browser`, so `-m "not browser"` leaves them out."""
     for item in items:
         if "browser" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.browser)
-            browser_files.add(item.path)
-    items.sort(key=lambda item: item.path not in browser_files)
