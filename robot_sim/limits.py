@@ -34,6 +34,8 @@ MAX_GRIPPER_S = 5.0  # [s] a gripper command's duration
 MAX_DITHER_AMPLITUDE = 0.35  # [rad] torsional tilt; translational radius has its own cap below
 MAX_DITHER_RADIUS_M = 0.02
 MAX_DITHER_FREQUENCY_HZ = 10.0
+# [m] the least `progress` a dither may end on: at or below its 1 mm tolerance it would end at once
+MIN_DITHER_PROGRESS_M = 0.002
 # Caps on thresholds: a threshold must be able to end a behavior. 500 N / 50 N m is far above
 # any wrench the compliance presets reach in the tasks (tens of N), and far below what would
 # read as "no limit" (a 1e308 N threshold passed validation before).

@@ -365,10 +365,13 @@ class DitherParams(Expiring):
         0.01, description="[m] distance along the axis"
     )
     duration: Duration = Field(4.0, description="[s] time to cover `travel`, (0, 600]")
-    progress: Annotated[float, _range(0.0, limits.MAX_TRANSLATION_M, "m", lo_open=True)] | None = Field(
-        None,
-        description="[m] the port's advance along the axis that ends it `goal_reached` (a jam freed), "
-        "<= travel; default travel",
+    progress: Annotated[float, _range(limits.MIN_DITHER_PROGRESS_M, limits.MAX_TRANSLATION_M, "m")] | None = (
+        Field(
+            None,
+            description="[m] the port's advance along the axis that ends it `goal_reached` (a jam "
+            "freed), <= travel; null: the travel. Ends within 1 mm of it (the travel's tolerance), "
+            "the attractor still ahead: the push it leaves is relieved by an RWE",
+        )
     )
     force_threshold: ForceThreshold = Field(30.0, description="[N] <= 500")
     torque_threshold: TorqueThreshold = Field(3.0, description="[N m] <= 50")
@@ -399,9 +402,7 @@ class DitherParams(Expiring):
             self.watchdog = self.duration + 5.0
         elif self.watchdog < self.duration:
             raise ValueError(f"watchdog ({self.watchdog:g} s) must be >= duration ({self.duration:g} s)")
-        if self.progress is None:
-            self.progress = self.travel
-        elif self.progress > self.travel:
+        if self.progress is not None and self.progress > self.travel:
             raise ValueError(f"progress ({self.progress:g} m) must be <= travel ({self.travel:g} m)")
         return self
 

@@ -36,7 +36,7 @@ class Presets:
             params = self.dither[name]
         except KeyError:
             raise UnknownNameError("dither preset", name, list(self.dither)) from None
-        return params.model_dump(exclude={"preset", "type", "watchdog"})
+        return params.model_dump(exclude={"preset", "type", "watchdog", "progress"})
 
 
 def load_presets(path: Path) -> Presets:

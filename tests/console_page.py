@@ -63,7 +63,10 @@ def take_control(page) -> None:  # type: ignore[no-untyped-def]
     page.get_by_role("button", name="Take control").click()
     # Control, or the question whether to take it from another operator: whichever comes first
     # (waiting a fixed second for a question that nobody asks cost every page a second).
-    asked = f"[...document.querySelectorAll('button')].some(b => b.innerText.includes('{TAKE_FROM}'))"
+    asked = (
+        "[...document.querySelectorAll('button')]"
+        f".some(b => b.offsetParent !== null && b.innerText.includes('{TAKE_FROM}'))"
+    )
     until(page, f"{MINE} || {asked}")
     confirm = page.get_by_role("button", name=TAKE_FROM)
     if confirm.count():

@@ -394,21 +394,31 @@ def test_the_force_arrow_ends_at_the_port_from_outside(console: ConsoleApp) -> N
     assert tail[2] < head[2] - 0.05  # from below, outside the tool (which runs up from the port)
 
 
-def test_a_still_robot_sends_the_page_nothing_and_a_move_says_so(console: ConsoleApp) -> None:
+def test_a_still_robot_sends_the_page_nothing_and_a_move_says_so() -> None:
     """Each message to the page is a re-render there: a state that moves nothing on screen moves
     nothing and says so (on main the scene's mirror was re-sent with every state, ~50 layouts a
-    second of a still page); a state that moves the port says so too."""
-    wait_for_state(console)
-    latest = console.link.latest()[0]
-    assert console.view is not None and latest is not None
-    console.view.update(latest)
-    assert console.view.update({**latest, "seq": latest["seq"] + 1}) is False
-    port = latest["port"]
-    moved = {**port, "position": [p + 0.001 for p in port["position"]]}
-    assert console.view.update({**latest, "port": moved}) is True
-    name, pose = next(iter(latest["bodies"].items()))  # a body alone (the jaws closing, say)
-    bodies = {**latest["bodies"], name: [pose[0] + 0.001, *pose[1:]]}
-    assert console.view.update({**latest, "port": moved, "bodies": bodies}) is True
+    second of a still page); a state that moves the port, or a body alone, says so too. (A view
+    of its own: a console's would be moved by its feed meanwhile.)"""
+    from robot_sim.geometry import moving_bodies
+    from robot_sim.telemetry import state_fields
+    from web.robot_view import RobotView
+
+    sim = Simulation("free_space")
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        view = RobotView(server, arrow_m_per_n=0.005)
+        view.load(GeometryModel(scene="free_space", **scene_geometry(sim.model, sim.data)))
+        state = state_fields(sim, moving_bodies(sim.model))
+        assert view.update(state) is True  # the first: everything is placed
+        assert view.update({**state, "sim_time": state["sim_time"] + 0.02}) is False
+        port = state["port"]
+        moved = {**port, "position": [p + 0.001 for p in port["position"]]}
+        assert view.update({**state, "port": moved}) is True
+        name, pose = next(iter(state["bodies"].items()))  # a body alone (the jaws closing, say)
+        bodies = {**state["bodies"], name: [pose[0] + 0.001, *pose[1:]]}
+        assert view.update({**state, "port": moved, "bodies": bodies}) is True
+    finally:
+        server.stop()
 
 
 def test_fixtures_are_see_through_and_the_markers_opaque(console: ConsoleApp) -> None:

@@ -175,11 +175,14 @@ def test_a_seek_goes_where_the_browser_moved_the_slider_though_the_poll_moved_it
 
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     try:
-        seeks: list[float] = []
+        seeks: list[tuple[int, float]] = []
         status = {"duration_s": 20.0, "position_s": 19.0}
-        timeline = Timeline(server.gui, server.gui.add_folder("Replay"), status, seeks.append)
+        timeline = Timeline(server.gui, server.gui.add_folder("Replay"), status, lambda: None)
+        timeline._on_seek = lambda: seeks.append(timeline.request())  # type: ignore[method-assign]
         slider = cast(Any, timeline)._slider
         event = viser.GuiEvent(cast(Any, SimpleNamespace()), 1, slider)
+        # viser runs them in this order: the move must be taken by the first, on its loop.
+        assert [inspect.iscoroutinefunction(c) for c in slider._impl.update_cb] == [True, False]
         slider._impl.value = 7.5  # the browser's move, as viser applies it
         later = []
         for callback in slider._impl.update_cb:
@@ -190,7 +193,7 @@ def test_a_seek_goes_where_the_browser_moved_the_slider_though_the_poll_moved_it
         timeline.show({**status, "position_s": 19.0})  # the poll, answered before the seek
         for callback in later:  # the pool's turn
             callback(event)
-        assert seeks == [7.5]
+        assert seeks == [(1, 7.5)]
     finally:
         server.stop()
 
@@ -207,12 +210,16 @@ def test_a_playhead_polled_across_a_seek_is_not_shown() -> None:
     status |= {"speed": 1.0, "speeds": [1.0]}
     playback: Any = None
 
+    puts: list[dict[str, Any]] = []
+
     class Api:
         def get(self) -> dict[str, Any]:
-            playback._seek(5.0)  # the operator's seek lands while this answer is on its way
+            playback.timeline._requested_s, playback.timeline._requests = 5.0, 1  # a browser's move
+            playback._seek()  # its seek lands while this answer is on its way
             return {**status, "position_s": 19.0}
 
         def put(self, **change: Any) -> dict[str, Any]:
+            puts.append(change)
             return {**status, **change}
 
     class OnePoll:
@@ -229,5 +236,51 @@ def test_a_playhead_polled_across_a_seek_is_not_shown() -> None:
         playback._closed = OnePoll()
         playback._run()
         assert playback.status["position_s"] == 5.0  # the seek's answer, not the older poll's
+        playback._seek()  # a second thread for the same move (a burst of moves): one seek only
+        assert puts == [{"position_s": 5.0}]
+    finally:
+        server.stop()
+
+
+def test_a_playhead_polled_while_a_seek_is_on_its_way_is_not_shown() -> None:
+    """The poll asked while the seek's PUT was in flight and was answered first, with the old
+    position: that answer came after the seek's and must not undo it."""
+    import threading
+    from typing import Any
+
+    from web.playback import Playback
+
+    status = {"file": "/r.mcap", "duration_s": 20.0, "position_s": 19.0, "playing": False}
+    status |= {"speed": 1.0, "speeds": [1.0]}
+    put_sent, put_answered = threading.Event(), threading.Event()
+
+    class Api:
+        def get(self) -> dict[str, Any]:
+            put_answered.set()  # the replay answers the PUT just after this GET
+            return {**status, "position_s": 19.0}
+
+        def put(self, **change: Any) -> dict[str, Any]:
+            put_sent.set()
+            put_answered.wait(5.0)
+            return {**status, **change}
+
+    class OnePoll:
+        polls = 0
+
+        def wait(self, timeout: float) -> bool:
+            self.polls += 1
+            return self.polls > 1
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        playback: Any = Playback(server.gui, Api(), status, on_jump=lambda: None)  # type: ignore[arg-type]
+        playback.timeline._requested_s, playback.timeline._requests = 5.0, 1
+        seek = threading.Thread(target=playback._seek)
+        seek.start()
+        assert put_sent.wait(5.0)
+        playback._closed = OnePoll()
+        playback._run()  # asks now, mid-PUT; shows only once the seek is done
+        seek.join(5.0)
+        assert playback.status["position_s"] == 5.0
     finally:
         server.stop()

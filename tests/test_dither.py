@@ -174,9 +174,14 @@ def test_a_push_ends_on_its_progress_before_its_travel() -> None:
     assert sim.run_behavior(Dither(DitherParams(preset="torsional_push"))).duration > 5.0
 
 
-def test_progress_is_within_the_travel() -> None:
-    assert DitherParams(travel=0.02).progress == 0.02  # by default, the travel ends it
+def test_progress_is_within_the_travel_and_a_preset_brings_none() -> None:
+    assert DitherParams(travel=0.02).progress is None  # the travel ends it
     with pytest.raises(ValueError, match=r"progress \(0.03 m\) must be <= travel \(0.02 m\)"):
         DitherParams(travel=0.02, progress=0.03)
-    with pytest.raises(ValueError, match="progress"):
-        DitherParams(progress=0.0)
+    with pytest.raises(ValueError, match=r"progress"):  # at the 1 mm tolerance it would end at once
+        DitherParams(progress=0.001)
+    # A preset with another travel: the request's travel ends it, shorter or longer (a preset that
+    # carried its own progress refused the shorter and ended the longer at 20 mm).
+    for travel in (0.01, 0.05):
+        assert DitherParams(preset="torsional_push", travel=travel).progress is None
+    assert "progress" not in default_presets().dither_preset("torsional_push")

@@ -114,7 +114,7 @@ def test_each_recovery_phase_does_its_part() -> None:
     """Issue 29 point 5, over the grid. On main every "insert again" started from the push the
     twist left and 17 of 36 breached in their first 10 ms (28-33 N against 25 N), and 33 of 36
     twists ran to their 11 s watchdog: now a relief comes between, and a twist ends once the
-    sleeve has given 5 mm."""
+    sleeve has given 4-5 mm."""
     steps = [step for *_, run in recovery_grid().values() for step in run]
     rounds = [i for i, (behavior, *_) in enumerate(steps) if behavior == "dither"]
     assert len(rounds) >= 24  # the grid's 12 tilts each need at least two rounds
@@ -125,7 +125,6 @@ def test_each_recovery_phase_does_its_part() -> None:
     twists = [steps[i] for i in rounds]
     on_watchdog = [twist for twist in twists if twist[1] == "timeout"]
     assert len(on_watchdog) <= 0.2 * len(twists), on_watchdog  # 4 of 35 measured
-    assert all(duration < 11.0 for _, exit_, duration, _ in twists if exit_ == "goal_reached")
 
 
 def test_one_degree_is_absorbed_by_the_compliance() -> None:

@@ -22,22 +22,19 @@ def test_a_ground_trial_through_the_real_link_takes_the_virtual_task_time(tmp_pa
         status = cross_check(settings, robot.url, link.url, out)
     text = out.getvalue()
     found = re.search(
-        r"mean task time ([\d.]+) s in real time, ([\d.]+) s without the robot's lag, "
+        r"mean task time ([\d.]+) s in real time \(the robot ([\d.]+) s behind it\), "
         r"([\d.]+) s in virtual time",
         text,
     )
     assert found, text
-    wall, real, virtual = float(found[1]), float(found[2]), float(found[3])
+    real, lag, virtual = float(found[1]), float(found[2]), float(found[3])
     assert virtual > 7.0  # the insertion (5.9 s), a round trip and a think, the relieve (1 s)
-    assert real <= wall  # the lag a busy host adds is taken out, never put in
+    assert lag < 0.05 * virtual, text  # a robot that cannot keep real time is named, not judged
     # The command line's bar is 5 %; measured +0.0 % on an idle machine. Never more than 2 % short
     # of the virtual time: an operator that stamped each arrival with the time its wait began (a
-    # bug this caught) read -4.6 %, and so does a wall time cut short. A busy host makes real time
-    # longer: the robot's own lag is taken out (the text gives it per trial); what is left (the
-    # link's and this process's scheduling) gets the margin read with a core hogged and two
-    # tests at once (+5.2 %; +12.8 % once beside two browser tests, before the lag was known).
+    # bug this caught) read -4.6 %. A busy host only makes real time longer (+5.2 % with a core
+    # hogged and two tests at once), so above it the bound is that margin's.
     assert virtual * 0.98 <= real <= virtual * 1.08, text
-    assert wall >= virtual * 0.98, text
     verdict_holds = "holds" in text
     assert (status == 0) == verdict_holds, text  # the exit status is the verdict it printed
     off = abs(real - virtual) / virtual  # (of figures rounded to 10 ms: judged clear of the bar)
@@ -61,6 +58,6 @@ def test_realtime_runs_one_plain_grid_point(tmp_path: Path) -> None:
 
 def test_the_robots_lag_is_its_commands_wall_span_less_their_simulated_time() -> None:
     assert robot_lag_s(100.0, 106.5, 5.9) == pytest.approx(0.6)  # a 5.9 s move took 6.5 s of wall
-    assert robot_lag_s(100.0, 105.899, 5.9) == 0.0  # clocks a millisecond apart: no lag, never less
+    assert robot_lag_s(100.0, 105.8, 5.9) == pytest.approx(-0.1)  # a lag from before caught up
     unknown = (robot_lag_s(100.0, None, 5.9), robot_lag_s(None, 101.0, 1.0), robot_lag_s(1.0, 2.0, None))
     assert unknown == (0.0, 0.0, 0.0)  # a command that never ran or ended adds nothing

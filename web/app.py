@@ -157,8 +157,8 @@ class ConsoleApp:
         if previous is None or state["gains"] != previous["gains"]:
             self.board.show_gains(state["gains"])
         with self.server.atomic():
-            # The mirror follows the scene: a still robot sends nothing, and its page lays
-            # nothing out (re-sent with each state it cost the page ~50 layouts/s).
+            # The scene's mirror is sent with what moved, not again for a still scene (re-sent
+            # with each state it cost every page ~50 layouts/s; the plots and bar still update).
             if self.view.update(state) or self.board.scene_state_unset:
                 self.board.show_scene_state(state["seq"], arrived)
         self.desks.state_arrived()

@@ -42,11 +42,13 @@ class Playback(Worker):
         self._on_jump = on_jump
         self._plots = ReplayPlots(plots)
         self.status = status
-        # viser runs each slider update on a thread of its pool: two seeks in quick succession
-        # would interleave (the plots filled for one, the playhead at the other). One at a time;
-        # a poll answered across a seek is older than it and is not shown.
-        self._seeking = threading.Lock()
-        self._seeks = 0
+        # viser runs each slider update on a thread of its pool: seeks in quick succession would
+        # interleave (the plots filled for one, the playhead at the other). One change at a time,
+        # each seek to the newest move (a burst of moves is one seek); a poll whose answer may
+        # predate a change (asked before it ended) is not shown.
+        self._seeking = threading.RLock()
+        self._changes = 0  # counted as each change is sent and as it is answered
+        self._seeks_done = 0  # the timeline's move the last seek went to
         speeds = [f"{s:g}x" for s in status["speeds"]]
         with gui.add_folder("Replay", expand_by_default=True, order=PLAYBACK_ORDER) as folder:
             self.title = add_html(gui, _title_html(status))
@@ -100,15 +102,21 @@ class Playback(Worker):
     def put(self, **change: Any) -> dict[str, Any] | None:
         """The change made: the playhead as the replay answered (None if it did not: the next
         poll shows where the playhead really is)."""
-        status = self._api.put(**change)
-        if status is not None:
-            self._show(status)
-        return status
-
-    def _seek(self, position_s: float) -> None:
-        # The slider's end is the duration rounded down to its step: there, seek to the very end.
         with self._seeking:
-            self._seeks += 1
+            self._changes += 1
+            status = self._api.put(**change)
+            self._changes += 1
+            if status is not None:
+                self._show(status)
+            return status
+
+    def _seek(self) -> None:
+        with self._seeking:
+            move, position_s = self.timeline.request()
+            if move == self._seeks_done:
+                return  # a seek on another thread already went to this move or a newer one
+            self._seeks_done = move
+            # The slider's end is the duration rounded down to its step: there, the very end.
             end_s = self.status["duration_s"]
             status = self.put(position_s=end_s if position_s >= slider_end(end_s) else position_s)
             self._on_jump()
@@ -117,10 +125,10 @@ class Playback(Worker):
 
     def _run(self) -> None:
         while not self._closed.wait(POLL_S):
-            seeks = self._seeks
+            changes = self._changes
             status = self._api.get()
             with self._seeking:
-                if status is not None and seeks == self._seeks:
+                if status is not None and changes == self._changes:
                     self._show(status)
 
     def _show(self, status: dict[str, Any]) -> None:

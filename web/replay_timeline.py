@@ -21,7 +21,7 @@ class Timeline:
         gui: viser.GuiApi,
         folder: viser.GuiFolderHandle,
         status: dict[str, Any],
-        on_seek: Callable[[float], None],
+        on_seek: Callable[[], None],
     ) -> None:
         self._gui, self._on_seek = gui, on_seek
         self._status = status
@@ -29,6 +29,7 @@ class Timeline:
         self._marked: list[CommandSpan] | None = None  # the commands marked on the timeline
         self._note = "reading the recording"
         self._requested_s = 0.0  # [s] where a browser last moved the slider
+        self._requests = 0  # how many moves a browser has made
         with folder:
             self._slider = self._add_slider()
             self._strip = add_html(gui, self._strip_html())
@@ -42,20 +43,26 @@ class Timeline:
             initial_value=0.0,
         )
 
-        # viser sets the value, then awaits async callbacks at once and hands the others to its
-        # thread pool: the value is read here, before the poll (another thread) can set the
-        # playhead's older position over it, and the seek (blocking HTTP) runs on the pool.
+        # viser sets the value, then awaits async callbacks on its event loop and hands the others
+        # to its thread pool, where the playhead's poll may have set its older position over the
+        # value meanwhile: the move is taken here, first (registered first), and the seek
+        # (blocking HTTP) runs on the pool, to the newest move (request()).
         @slider.on_update
         async def _(event: viser.GuiEvent) -> None:
             if event.client is not None:
                 self._requested_s = float(slider.value)
+                self._requests += 1
 
         @slider.on_update
         def _(event: viser.GuiEvent) -> None:
             if event.client is not None:  # a browser moved it: seek
-                self._on_seek(self._requested_s)
+                self._on_seek()
 
         return slider
+
+    def request(self) -> tuple[int, float]:
+        """(how many moves a browser has made, where [s] the newest one put the slider)."""
+        return self._requests, self._requested_s
 
     def mark(self, commands: list[CommandSpan], duration_s: float) -> None:
         """The recording's commands, on the slider and the strip: both show them, or neither."""

@@ -53,6 +53,7 @@ class Dither(Behavior):
         self._p_world_from = np.zeros(3)  # attractor at start: the centre's origin
         self._q_world_from = np.zeros(4)
         self._sign = 1.0 if params.direction == "push" else -1.0
+        self._ends_at_m = params.travel if params.progress is None else params.progress
         self._wiggle = np.zeros(3)
         self._q_tmp = np.zeros(4)
         self._t0 = 0.0
@@ -78,8 +79,7 @@ class Dither(Behavior):
         p = self.params
         if wrench_breached(ctl, p.force_threshold, p.torque_threshold):
             return end_breach(ctl, p.on_breach, p.force_threshold, p.torque_threshold)
-        assert p.progress is not None
-        if self.progress(ctl) >= p.progress - TRAVEL_TOLERANCE_M:
+        if self.progress(ctl) >= self._ends_at_m - TRAVEL_TOLERANCE_M:
             return ExitCondition.GOAL_REACHED
         elapsed = t - self._t0
         assert p.watchdog is not None

@@ -3,7 +3,8 @@ force threshold is a setting, and the paper's recovery when it stops short, in o
 
     RWE (all axes)              relieve the jam's wrench
     Dither torsional_push       turn while advancing: breaks the wedging friction; ends once the
-                                port has walked 5 mm further in (`progress`), or at its watchdog
+                                port has walked 4-5 mm further in (`progress` 5 mm, within the
+                                travel's 1 mm tolerance), or at its watchdog
     RWE (all axes)              relieve what the dither's push left: inserting again from it
                                 breached at once (17 of 36 times over the sleeve's grid, 28-33 N)
     the insertion again         after `max_recoveries` rounds: failed
@@ -19,7 +20,7 @@ from robot_sim.policies.base import Decision, Finish, Policy, PolicySettings, St
 from robot_sim.policies.travel import travel_down_tool_axis_m
 
 RELIEVE = RweParams(duration=1.0)
-# The twist ends once the port has walked 5 mm further in (the jam has given), not on its 11 s
+# The twist ends once the port has walked 4-5 mm further in (the jam has given), not on its 11 s
 # watchdog: over the sleeve's tilt grid 4 of 35 twists ran to the watchdog, 33 of 36 before.
 TWIST = DitherParams(preset="torsional_push", progress=0.005)
 
@@ -47,7 +48,7 @@ class InsertionPolicy(Policy):
         return travel_down_tool_axis_m(self.home, port)
 
     def recover(self, why: str, travel_m: float) -> Decision:
-        """Another recovery round (relieve, twist, insert), or give up after the last."""
+        """Another recovery round (relieve, twist, relieve, insert), or give up after the last."""
         if self.recoveries == self.settings.max_recoveries:
             return Finish(
                 False, f"still short {1000 * travel_m:.1f} mm down after {self.recoveries} recoveries"

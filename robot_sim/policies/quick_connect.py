@@ -6,7 +6,7 @@
               -> the port went past SEATED_M: latched; relieve
               -> it stopped short (a jam at the mouth, or the collar not pushed through): recover
     recover   RWE (all axes), Dither torsional_push (turn while advancing, until the port has
-              gone 5 mm further in), RWE, insert again; after `max_recoveries` (3): failed
+              gone 4-5 mm further in), RWE, insert again; after `max_recoveries` (3): failed
     relieve   RWE: the seating force goes, the latch holds; completed
 
 Depth is judged by how far the port has travelled down the tool axis since the start (the

@@ -12,7 +12,7 @@ degrees the 0.089 mm fit jams 3-7 mm in, and every further PTWL breaches at once
               Dither torsional_push             turn +-0.1 rad about the sleeve axis at 1 Hz while
                                                 advancing 20 mm: the turning breaks the wedging
                                                 friction and the sleeve walks in and straightens;
-                                                it ends once the port has gone 5 mm further in
+                                                it ends once the port has gone 4-5 mm further in
               RWE (all axes)                    relieve the twist's push
               then insert again; after `max_recoveries` (4) jams in a row: failed
 
