@@ -159,7 +159,8 @@ class ConsoleApp:
         with self.server.atomic():
             # The scene's mirror is sent with what moved, not again for a still scene (re-sent
             # with each state it cost every page ~50 layouts/s; the plots and bar still update).
-            if self.view.update(state) or self.board.scene_state_unset:
+            # The first state after a (re)load always moves: nothing was placed yet.
+            if self.view.update(state):
                 self.board.show_scene_state(state["seq"], arrived)
         self.desks.state_arrived()
         self.board.plot_state(state["sim_time"], state["wrench"])

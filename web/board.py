@@ -22,7 +22,6 @@ class Board:
         # Which state the 3D scene last moved to, sent in the same atomic batch as the scene
         # (tests and bench/console.py read it; the status bar shows the age on its own clock).
         self.scene_state = add_html(gui, _scene_state_html(None, None), order=BOARD_ORDER + 0.7)
-        self.scene_state_unset = True
         with gui.add_folder("Force / torque", expand_by_default=True, order=BOARD_ORDER + 1):
             self.plots = WrenchPlots(gui, plot_window_s)
         with gui.add_folder("Commands", expand_by_default=True, order=BOARD_ORDER + 2):
@@ -49,7 +48,6 @@ class Board:
         show(self.command_status, _command_html(view))
 
     def show_scene_state(self, seq: int, arrived: float) -> None:
-        self.scene_state_unset = False
         show(self.scene_state, _scene_state_html(seq, arrived))
 
     def show_gains(self, gains: dict[str, Any] | None) -> None:

@@ -46,7 +46,7 @@ class Playback(Worker):
         # interleave (the plots filled for one, the playhead at the other). One change at a time,
         # each seek to the newest move (a burst of moves is one seek); a poll whose answer may
         # predate a change (asked before it ended) is not shown.
-        self._seeking = threading.RLock()
+        self._changing = threading.RLock()
         self._changes = 0  # counted as each change is sent and as it is answered
         self._seeks_done = 0  # the timeline's move the last seek went to
         speeds = [f"{s:g}x" for s in status["speeds"]]
@@ -102,7 +102,7 @@ class Playback(Worker):
     def put(self, **change: Any) -> dict[str, Any] | None:
         """The change made: the playhead as the replay answered (None if it did not: the next
         poll shows where the playhead really is)."""
-        with self._seeking:
+        with self._changing:
             self._changes += 1
             status = self._api.put(**change)
             self._changes += 1
@@ -111,7 +111,7 @@ class Playback(Worker):
             return status
 
     def _seek(self) -> None:
-        with self._seeking:
+        with self._changing:
             move, position_s = self.timeline.request()
             if move == self._seeks_done:
                 return  # a seek on another thread already went to this move or a newer one
@@ -127,7 +127,7 @@ class Playback(Worker):
         while not self._closed.wait(POLL_S):
             changes = self._changes
             status = self._api.get()
-            with self._seeking:
+            with self._changing:
                 if status is not None and changes == self._changes:
                     self._show(status)
 
