@@ -51,6 +51,16 @@ BAD_COMMANDS = {
         422,
         ["watchdog (2 s) must be >= duration (5 s)"],
     ),
+    "dither_progress_past_its_travel": (
+        '{"type": "dither", "travel": 0.01, "progress": 0.02}',
+        422,
+        ["progress (0.02 m) must be <= travel (0.01 m)"],
+    ),
+    "dither_progress_within_its_tolerance": (
+        '{"type": "dither", "progress": 0.001}',
+        422,
+        ["progress", "[0.002, 1] m"],
+    ),
     "force_threshold_zero": (
         '{"type": "ptwl", "force_threshold": 0}',
         422,
