@@ -14,9 +14,12 @@ from concurrent.futures import ProcessPoolExecutor
 
 from tqdm import tqdm
 
+from robot_sim.limits import GRIPPER_CLOSE_S
 from robot_sim.policies import POLICIES, TaskRun, policy_for, run_onboard
+from robot_sim.policies.paper_tables import beside_paper
 from robot_sim.policies.run import paper_rows
 from robot_sim.scenes import get_scene
+from robot_sim.scenes.grasp import PNEUMATIC_CLOSE_S, check_close_time
 
 
 def cmd_list(_: argparse.Namespace) -> int:
@@ -54,7 +57,9 @@ def run_line(run: TaskRun) -> str:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    run = run_onboard(args.task, args.seed, overrides=overrides(args.task, args.set))
+    run = run_onboard(
+        args.task, args.seed, overrides=overrides(args.task, args.set), gripper_close_s=args.gripper_close_s
+    )
     if args.json:
         print(json.dumps(run.as_dict()))
     else:
@@ -76,6 +81,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
     """Seeds 0..N-1 on every core (each trial is its own simulation: the same numbers whatever
     the number of workers); a progress bar on a terminal."""
     seeds = range(args.seeds)
+    check_close_time(
+        args.task, get_scene(args.task).gripper, args.gripper_close_s
+    )  # before any worker starts
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
         trials = pool.map(
             run_onboard,
@@ -83,9 +91,13 @@ def cmd_bench(args: argparse.Namespace) -> int:
             seeds,
             itertools.repeat(None),
             itertools.repeat(overrides(args.task, args.set)),
+            itertools.repeat(args.gripper_close_s),
         )
         runs = list(tqdm(trials, total=len(seeds), desc=args.task, unit="trial", file=sys.stderr))
     print(bench_table(args.task, runs))
+    ours = paper_rows([r.as_dict() for r in runs], [r.success for r in runs])
+    if beside := beside_paper(args.task, ours, "ours"):
+        print("\n".join(["", *beside]))
     return 0
 
 
@@ -98,10 +110,24 @@ def add_task_parser(sub: "argparse._SubParsersAction[argparse.ArgumentParser]") 
     run.add_argument("--seed", type=int, default=None, help="the scene's misalignments (default: nominal)")
     run.add_argument("--json", action="store_true", help="one JSON object instead of text")
     run.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="override a setting")
+    add_scene_options(run)
     run.set_defaults(func=cmd_run)
     bench = verbs.add_parser("bench", help="seeds 0..N-1: success rate and the paper's table of means")
     bench.add_argument("task", choices=list(POLICIES))
     bench.add_argument("--seeds", type=int, default=100)
     bench.add_argument("--workers", type=int, default=os.cpu_count(), help="processes (default: every core)")
     bench.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="override a setting")
+    add_scene_options(bench)
     bench.set_defaults(func=cmd_bench)
+
+
+def add_scene_options(parser: argparse.ArgumentParser) -> None:
+    low, high = GRIPPER_CLOSE_S
+    parser.add_argument(
+        "--gripper-close-s",
+        type=float,
+        default=None,
+        metavar="S",
+        help=f"the gripper's closing time constant, [{low}, {high}] s (default: the scene's own, 0.01; "
+        f"{PNEUMATIC_CLOSE_S}: the paper's pneumatic gripper and its closing impact)",
+    )

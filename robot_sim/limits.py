@@ -34,6 +34,10 @@ MAX_GRIPPER_S = 5.0  # [s] a gripper command's duration
 MAX_DITHER_AMPLITUDE = 0.35  # [rad] torsional tilt; translational radius has its own cap below
 MAX_DITHER_RADIUS_M = 0.02
 MAX_DITHER_FREQUENCY_HZ = 10.0
+# [s] a gripper's closing time constant (a scene parameter, robot_sim/scenes/grasp.py): MuJoCo
+# holds a constraint's time constant to >= 2 physics steps (2 ms); 50 ms is a slow electric
+# gripper's (a part pulled in over ~0.15 s).
+GRIPPER_CLOSE_S = (0.002, 0.05)
 # [m] the least `progress` a dither may end on: at or below its 1 mm tolerance it would end at once
 MIN_DITHER_PROGRESS_M = 0.002
 # Caps on thresholds: a threshold must be able to end a behavior. 500 N / 50 N m is far above

@@ -29,7 +29,7 @@ from robot_sim.model import PHYSICS_TIMESTEP_S, build_model
 from robot_sim.payload import Payload
 from robot_sim.presets import default_presets
 from robot_sim.scenes import Scene, TaskProgress, apply_seed, get_scene
-from robot_sim.scenes.grasp import actuate
+from robot_sim.scenes.grasp import actuate, check_close_time, close_time, set_close_time
 from robot_sim.task_frames import TaskFrame, TaskFrames, scene_frames, unit_quaternion
 from robot_sim.task_monitor import FrictionMonitor
 
@@ -84,10 +84,13 @@ class Simulation:
         control_hz: float = 1000.0,
         qpos: "tuple[float, ...] | None" = None,
         ft_cutoff_hz: float | None = FT_CUTOFF_HZ,
+        gripper_close_s: float | None = None,
     ) -> None:
         """Args:
         scene: a name from robot_sim.scenes.SCENES.
         seed: jitters the scene's fixture (None: nominal layout).
+        gripper_close_s: the gripper's closing time constant [s] (None: the scene's own; see
+            robot_sim/scenes/grasp.py), on a scene whose tool has a gripper.
         gains: initial stiffness/damping (default: the config's default preset).
         control_hz: control rate [Hz], >= 500 and a divisor of the 1 kHz physics rate.
         qpos: initial joint positions [rad] (default: the scene's home).
@@ -106,7 +109,13 @@ class Simulation:
         self.last_fault: str | None = None
         self.controller: AdmittanceController
         self.last_report: BehaviorReport | None = None  # kept across resets: how the last one ended
-        self.reset(scene, seed, gains=gains if gains is not None else default_gains(), qpos=qpos)
+        self.reset(
+            scene,
+            seed,
+            gains=gains if gains is not None else default_gains(),
+            qpos=qpos,
+            gripper_close_s=gripper_close_s,
+        )
 
     # ------------------------------------------------------------------------- scenes
     def reset(
@@ -116,11 +125,16 @@ class Simulation:
         *,
         gains: Gains | None = None,
         qpos: "tuple[float, ...] | None" = None,
+        gripper_close_s: float | None = None,
     ) -> None:
-        """Load `scene` fresh, arm at home (or `qpos` [rad]), compliance on, attractor on the port."""
+        """Load `scene` fresh, arm at home (or `qpos` [rad]), compliance on, attractor on the port.
+        `gripper_close_s` [s]: the gripper's closing time constant (None: the scene's own)."""
         spec: Scene = get_scene(scene)
+        check_close_time(spec.name, spec.gripper, gripper_close_s)  # before anything is lost
         model = build_model(spec.scene_file, spec.tool_file)
         apply_seed(spec, model, seed)
+        if gripper_close_s is not None and spec.gripper is not None:
+            set_close_time(model, spec.gripper, gripper_close_s)
         data = mujoco.MjData(model)
         layout = ArmLayout.from_model(model)
         start = spec.home_qpos if qpos is None else qpos
@@ -134,6 +148,7 @@ class Simulation:
         mujoco.mj_forward(model, data)
         self.scene = spec
         self.seed = seed
+        self.gripper_close_s = gripper_close_s
         self.model = model
         self.data = data
         self.layout = layout
@@ -261,6 +276,11 @@ class Simulation:
             self._behavior_detail = self._actuate_gripper(behavior.params.action)
         return preempted
 
+    def gripper_close_time_s(self) -> float | None:
+        """The loaded gripper's closing time constant [s] (the scene's own unless set); None: no gripper."""
+        gripper = self.scene.gripper
+        return None if gripper is None else close_time(self.model, gripper)
+
     def _actuate_gripper(self, action: str) -> str:
         gripper = self.scene.gripper
         if gripper is None:
@@ -313,7 +333,7 @@ class Simulation:
         self.fault_count += 1
         self.last_fault = message
         report = self._finish(ExitCondition.FAULT, message) if self.behavior is not None else None
-        self.reset(self.scene.name, self.seed)
+        self.reset(self.scene.name, self.seed, gripper_close_s=self.gripper_close_s)
         return report
 
     def add_operator_frame(self, name: str, pose: Pose | None = None) -> TaskFrame:

@@ -180,8 +180,11 @@ class RobotClient:
         extra = {} if timeout is None else {"timeout": timeout}
         return StopResult(**self._request("POST", "/api/stop", **extra))
 
-    def reset_scene(self, name: str, seed: int | None = None) -> StopResult:
-        return StopResult(**self._request("POST", "/api/scene", json={"name": name, "seed": seed}))
+    def reset_scene(
+        self, name: str, seed: int | None = None, gripper_close_s: float | None = None
+    ) -> StopResult:
+        body = {"name": name, "seed": seed, "gripper_close_s": gripper_close_s}
+        return StopResult(**self._request("POST", "/api/scene", json=body))
 
     # ----------------------------------------------------------------- telemetry
     def telemetry_url(self) -> str:

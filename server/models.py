@@ -7,14 +7,23 @@ the library validate the same way.
 import math
 from typing import Annotated, Any, Literal
 
-from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    ValidationInfo,
+    field_validator,
+)
 
 from robot_sim.errors import UnknownNameError
-from robot_sim.limits import MAX_SEED
+from robot_sim.limits import GRIPPER_CLOSE_S, MAX_SEED
 from robot_sim.params import (
     FrameName,
 )
 from robot_sim.scenes import SCENES, get_scene
+from robot_sim.scenes.grasp import PNEUMATIC_CLOSE_S, check_close_time
 from robot_sim.task_frames import MAX_OPERATOR_FRAMES, unit_quaternion
 
 CommandState = Literal["queued", "running", "done"]
@@ -216,8 +225,22 @@ class HealthModel(BaseModel):
     long_polls: int = Field(description="GET /api/commands/{id}?wait= requests open now")
 
 
+_GRIPPER_SCENES = [name for name, scene in SCENES.items() if scene.gripper is not None]
+
+
 class SceneRequest(BaseModel):
-    model_config = ConfigDict(extra="forbid", strict=True)
+    # The schema says which scenes take a gripper_close_s (the validator below is the rule):
+    # a scene with a gripper, or none given.
+    model_config = ConfigDict(
+        extra="forbid",
+        strict=True,
+        json_schema_extra={
+            "anyOf": [
+                {"properties": {"name": {"enum": _GRIPPER_SCENES}}},
+                {"properties": {"gripper_close_s": {"type": "null"}}},
+            ]
+        },
+    )
 
     name: SceneName = Field(description="a scene from GET /api/scenes")
     # Field before the validator: the other way round the schema says "ge"/"le", which JSON
@@ -225,6 +248,24 @@ class SceneRequest(BaseModel):
     seed: Annotated[int, Field(ge=0, le=MAX_SEED), BeforeValidator(_integral)] | None = Field(
         None, description=f"[0, {MAX_SEED}] jitters the fixture; null for the nominal layout"
     )
+    gripper_close_s: float | None = Field(
+        None,
+        ge=GRIPPER_CLOSE_S[0],
+        le=GRIPPER_CLOSE_S[1],
+        allow_inf_nan=False,
+        description=(
+            f"[s] the gripper's closing time constant, on a scene whose tool has one; null for the "
+            f"scene's own (0.01, gentle). {PNEUMATIC_CLOSE_S}: the paper's pneumatic gripper, "
+            "whose closing impact peaks near its 52 N"
+        ),
+    )
+
+    @field_validator("gripper_close_s")
+    @classmethod
+    def _has_a_gripper(cls, close_s: float | None, info: ValidationInfo) -> float | None:
+        if "name" in info.data:  # a bad name is reported on its own
+            check_close_time(info.data["name"], get_scene(info.data["name"]).gripper, close_s)
+        return close_s
 
 
 class SceneModel(BaseModel):
@@ -266,6 +307,9 @@ class BodyModel(BaseModel):
 
 class GeometryModel(BaseModel):
     scene: str = Field(description="loaded scene")
+    gripper_close_s: float | None = Field(
+        None, description="[s] its gripper's closing time constant (POST /api/scene); null: no gripper"
+    )
     bodies: dict[str, BodyModel] = Field(description="every body by name")
     geoms: list[GeomModel] = Field(description="every visible geom")
 

@@ -96,10 +96,13 @@ class SimRunner:
             stopped = self._commands.stop_all()
         return {"aborted": stopped.aborted, "dropped": stopped.dropped}
 
-    def reset_scene(self, name: str, seed: int | None) -> dict[str, Any]:
-        """(simulation thread) Stop everything and load `name` fresh."""
+    def reset_scene(
+        self, name: str, seed: int | None, gripper_close_s: float | None = None
+    ) -> dict[str, Any]:
+        """(simulation thread) Stop everything and load `name` fresh (its gripper closing with
+        time constant `gripper_close_s` [s]; None: the scene's own)."""
         stopped = self.stop_all()
-        self.sim.reset(name, seed)
+        self.sim.reset(name, seed, gripper_close_s=gripper_close_s)
         self._moving = moving_bodies(self.sim.model)
         self._scene_loaded()
         self.latest_state = self._state()
@@ -136,7 +139,12 @@ class SimRunner:
 
     def geometry(self) -> dict[str, Any]:
         """(simulation thread) The loaded scene's geoms and bodies (GET /api/geometry)."""
-        return {"scene": self.sim.scene.name, **scene_geometry(self.sim.model, self.sim.data)}
+        sim = self.sim
+        return {
+            "scene": sim.scene.name,
+            "gripper_close_s": sim.gripper_close_time_s(),
+            **scene_geometry(sim.model, sim.data),
+        }
 
     def real_time_lag(self) -> float:
         """[s] wall time minus sim time since the scene (re)started; ~0 when keeping up."""

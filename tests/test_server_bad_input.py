@@ -245,6 +245,19 @@ def test_unknown_scene_lists_the_valid_ones(
         ({"name": "surface", "seed": 2**40}, ["seed", "less than or equal to 4294967295"]),
         ({"name": "surface", "seed": "7"}, ["seed", "valid integer"]),
         ({"name": "surface", "sede": 7}, ["sede", "Extra inputs"]),
+        (
+            {"name": "surface", "gripper_close_s": 0.01},
+            ["gripper_close_s", "surface scene's tool has no gripper"],
+        ),
+        (
+            {"name": "tool_retrieval", "gripper_close_s": 0.001},
+            ["gripper_close_s", "greater than or equal to 0.002"],
+        ),
+        (
+            {"name": "tool_retrieval", "gripper_close_s": 0.5},
+            ["gripper_close_s", "less than or equal to 0.05"],
+        ),
+        ({"name": "tool_retrieval", "gripper_close_s": "0.01"}, ["gripper_close_s", "valid number"]),
     ],
 )
 def test_bad_scene_reset_is_refused_before_it_stops_anything(

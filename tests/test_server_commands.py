@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from robot_sim.scenes import SCENES
+from robot_sim.scenes.grasp import PNEUMATIC_CLOSE_S
 from server.client import RobotClient, RobotError
 
 GAP_TO_PLATE = 0.0466 - 0.008  # [m] as in tests/test_ptwl.py
@@ -131,6 +132,16 @@ def test_scene_reset_with_seed_and_task(robot: RobotClient) -> None:
     assert task.progress == pytest.approx(-0.0206, abs=0.003)
     assert robot.state().scene == "sleeve_on_peg"
     assert [s.name for s in robot.scenes()] == list(SCENES)
+
+
+def test_a_reset_sets_the_grippers_closing_time_and_the_geometry_says_it(robot: RobotClient) -> None:
+    robot.reset_scene("tool_retrieval", seed=1, gripper_close_s=PNEUMATIC_CLOSE_S)
+    pneumatic = robot.geometry()
+    assert pneumatic.scene == "tool_retrieval" and pneumatic.gripper_close_s == PNEUMATIC_CLOSE_S
+    robot.reset_scene("tool_retrieval", seed=1)  # not carried into the next load: the scene's own
+    assert robot.geometry().gripper_close_s == pytest.approx(0.01)
+    robot.reset_scene("surface")
+    assert robot.geometry().gripper_close_s is None  # a probe, no gripper
 
 
 def test_presets_by_name(robot: RobotClient) -> None:

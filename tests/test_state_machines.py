@@ -165,6 +165,15 @@ def test_task_command_line_runs_lists_and_benches() -> None:
         and "| Success | 2 / 2 |" in bench.stdout
         and "PTWL (timeout) | 1.00" in bench.stdout
     )
+    beside = bench.stdout.split("sleeve_on_peg beside the paper's Table 3")[1].splitlines()
+    [force] = [line for line in beside if line.startswith("Max force [N]")]
+    assert [cell.strip() for cell in force.split("|")][1:3] == ["18.8", "19.6"]  # the paper's, both links
+    assert any("one PTWL ending `timeout`" in line for line in beside)  # why the shape is the same
+    pneumatic = ptwl("run", "tool_retrieval", "--seed", "0", "--gripper-close-s", "0.0055", "--json")
+    assert pneumatic.returncode == 0, pneumatic.stderr
+    assert json.loads(pneumatic.stdout)["max_force_n"] > 30.0  # the closing impact: 37 N (15 N at 10 ms)
+    no_gripper = ptwl("run", "sleeve_on_peg", "--gripper-close-s", "0.01")
+    assert no_gripper.returncode == 2 and "sleeve_on_peg scene's tool has no gripper" in no_gripper.stderr
     bad = ptwl("run", "sleeve_on_peg", "--set", "max_recoveries=11")
     assert bad.returncode == 2 and "max_recoveries" in bad.stderr and "less than or equal to 10" in bad.stderr
     gave_up = ptwl(

@@ -18,6 +18,7 @@ from ptwl.recording import topics
 from ptwl.recording.reader import Recorded, Recording, RecordingError, Scan
 from robot_sim.behaviors import BehaviorReport
 from robot_sim.finite import report_from_json
+from robot_sim.policies.paper_tables import beside_paper, text_table
 from robot_sim.policies.run import paper_rows, report_metrics
 
 REPORTED = (topics.GEOMETRY.name, topics.STEPS.name, topics.TASK.name)  # all a report decodes
@@ -117,22 +118,17 @@ def report_text(source: Path | Recording) -> str:
     if not found:
         lines.append("  no behavior ran: nothing to report")
         return "\n".join(lines) + "\n"
-    columns = [dict(paper_rows([t.metrics()], [t.success])) for t in found]
+    columns = [
+        dict(paper_rows([t.metrics()], [t.success]), Success="yes" if t.success else "no") for t in found
+    ]
     headers = [f"trial {i + 1} ({t.scene})" for i, t in enumerate(found)]
     labels = [label for label, _ in paper_rows([found[0].metrics()], [True]) if label != "Trials"]
-    width = max(len(label) for label in labels)
-    widths = [max(len(h), 10) for h in headers]
-    lines.append("")
-    lines.append(" " * width + " | " + " | ".join(h.rjust(w) for h, w in zip(headers, widths, strict=True)))
-    lines.append("-" * width + "-|-" + "-|-".join("-" * w for w in widths))
-    for label in labels:
-        cells = [
-            ("yes" if t.success else "no") if label == "Success" else c[label]
-            for t, c in zip(found, columns, strict=True)
-        ]
-        lines.append(
-            label.ljust(width) + " | " + " | ".join(v.rjust(w) for v, w in zip(cells, widths, strict=True))
-        )
+    lines += ["", *text_table(labels, headers, columns)]
+    for scene in dict.fromkeys(t.scene for t in found):  # each scene once, in order
+        same = [t for t in found if t.scene == scene]
+        ours = paper_rows([t.metrics() for t in same], [t.success for t in same])
+        beside = beside_paper(scene, ours, f"this file ({len(same)})")
+        lines += ["", *beside] if beside else []
     return "\n".join(lines) + "\n"
 
 

@@ -88,10 +88,12 @@ def run_onboard(
     seed: int | None = None,
     sim: Simulation | None = None,
     overrides: dict[str, object] | None = None,
+    gripper_close_s: float | None = None,
 ) -> TaskRun:
-    """Run `task`'s state machine on `sim` (default: a fresh one of the task's scene, `seed`)."""
+    """Run `task`'s state machine on `sim` (default: a fresh one of the task's scene, `seed`,
+    its gripper closing with time constant `gripper_close_s`)."""
     machine = Machine(policy_for(task, overrides))
-    sim = sim or Simulation(task, seed)
+    sim = sim or Simulation(task, seed, gripper_close_s=gripper_close_s)
     step: Step | None = machine.start(sim.state().port)
     while step is not None:
         step = machine.advance(sim.run_behavior(behavior_for(step.params)))

@@ -24,7 +24,9 @@ async def tasks() -> list[TaskInfoModel]:
 @router.post("/scene", response_model=StopResult, responses=SIM_RESPONSES)
 async def reset_scene(body: SceneRequest, runner: Runner) -> StopResult:
     """Stop everything (running and queued commands end `aborted`) and load the scene fresh."""
-    return StopResult(**await on_sim_thread(runner, lambda: runner.reset_scene(body.name, body.seed)))
+    return StopResult(
+        **await on_sim_thread(runner, lambda: runner.reset_scene(body.name, body.seed, body.gripper_close_s))
+    )
 
 
 @router.get("/geometry", response_model=GeometryModel, responses=SIM_RESPONSES)
