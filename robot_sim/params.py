@@ -95,6 +95,7 @@ def _vector(limit: float, unit: str, *, direction: bool = False) -> WrapValidato
 Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
 Vec6 = Annotated[list[float], Field(min_length=6, max_length=6), _vector(math.inf, "")]
 Duration = Annotated[float, _range(0.0, limits.MAX_DURATION_S, "s", lo_open=True)]
+GripperCloseTime = Annotated[float, _range(*limits.GRIPPER_CLOSE_S, "s")]  # a scene's, POST /api/scene
 # Tolerances: a PTWL moves at most MAX_TRANSLATION_M and an orientation error is at most pi, so
 # a wider tolerance says nothing more (1e308 m was accepted).
 PositionTolerance = Annotated[float, _range(0.0, limits.MAX_TRANSLATION_M, "m", lo_open=True)]

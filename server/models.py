@@ -13,6 +13,7 @@ from pydantic import (
     BeforeValidator,
     ConfigDict,
     Field,
+    JsonValue,
     ValidationInfo,
     field_validator,
 )
@@ -21,6 +22,7 @@ from robot_sim.errors import UnknownNameError
 from robot_sim.limits import GRIPPER_CLOSE_S, MAX_SEED
 from robot_sim.params import (
     FrameName,
+    GripperCloseTime,
 )
 from robot_sim.scenes import SCENES, get_scene
 from robot_sim.scenes.grasp import PNEUMATIC_CLOSE_S, check_close_time
@@ -225,7 +227,7 @@ class HealthModel(BaseModel):
     long_polls: int = Field(description="GET /api/commands/{id}?wait= requests open now")
 
 
-_GRIPPER_SCENES = [name for name, scene in SCENES.items() if scene.gripper is not None]
+_GRIPPER_SCENES: list[JsonValue] = [name for name, scene in SCENES.items() if scene.gripper is not None]
 
 
 class SceneRequest(BaseModel):
@@ -248,15 +250,12 @@ class SceneRequest(BaseModel):
     seed: Annotated[int, Field(ge=0, le=MAX_SEED), BeforeValidator(_integral)] | None = Field(
         None, description=f"[0, {MAX_SEED}] jitters the fixture; null for the nominal layout"
     )
-    gripper_close_s: float | None = Field(
+    gripper_close_s: GripperCloseTime | None = Field(
         None,
-        ge=GRIPPER_CLOSE_S[0],
-        le=GRIPPER_CLOSE_S[1],
-        allow_inf_nan=False,
         description=(
-            f"[s] the gripper's closing time constant, on a scene whose tool has one; null for the "
-            f"scene's own (0.01, gentle). {PNEUMATIC_CLOSE_S}: the paper's pneumatic gripper, "
-            "whose closing impact peaks near its 52 N"
+            f"[s] the gripper's closing time constant, [{GRIPPER_CLOSE_S[0]}, {GRIPPER_CLOSE_S[1]}], on a "
+            f"scene whose tool has one; null for the scene's own (0.01, gentle). {PNEUMATIC_CLOSE_S}: "
+            "the paper's pneumatic gripper, whose closing impact peaks near its 52 N"
         ),
     )
 

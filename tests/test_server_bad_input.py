@@ -251,11 +251,11 @@ def test_unknown_scene_lists_the_valid_ones(
         ),
         (
             {"name": "tool_retrieval", "gripper_close_s": 0.001},
-            ["gripper_close_s", "greater than or equal to 0.002"],
+            ["gripper_close_s", "must be in [0.002, 0.05] s, got 0.001"],
         ),
         (
             {"name": "tool_retrieval", "gripper_close_s": 0.5},
-            ["gripper_close_s", "less than or equal to 0.05"],
+            ["gripper_close_s", "must be in [0.002, 0.05] s, got 0.5"],
         ),
         ({"name": "tool_retrieval", "gripper_close_s": "0.01"}, ["gripper_close_s", "valid number"]),
     ],
