@@ -13,8 +13,10 @@ import pytest
 from ptwl.recording import topics
 from ptwl.recording.reader import Recorded, Recording
 from ptwl.recording.report import report_text
+from robot_sim.behaviors.ptwl import Ptwl
 from robot_sim.errors import RobotSimError
 from robot_sim.limits import GRIPPER_CLOSE_S
+from robot_sim.params import PtwlParams
 from robot_sim.policies import TaskRun, run_onboard
 from robot_sim.policies.paper_tables import PAPER_TABLES, beside_paper
 from robot_sim.policies.run import paper_rows
@@ -113,3 +115,17 @@ def test_a_report_sets_a_recorded_retrieval_beside_table_1(pneumatic: list[TaskR
     [success_row] = [line for line in text.splitlines() if line.startswith("Success") and "2 / 2" in line]
     assert [cell.strip() for cell in success_row.split("|")][1:3] == ["-", "-"]  # the paper gives none
     assert "pneumatic gripper's closing impact" in text and "this file (2)" in text
+
+
+@pytest.mark.parametrize("misturn_rad", [0.4, -0.8])
+def test_the_jaws_close_on_a_round_knob_at_whatever_turn_it_has(misturn_rad: float) -> None:
+    """Issue 29: with the port turned 0.4 rad from the knob the close forced the locked tool to
+    the jaws' turn, 73.5 N, and the retrieval failed ("would not come out"); 0.8 rad, 147 N."""
+    sim = Simulation("tool_retrieval", 9001)
+    turned = sim.run_behavior(Ptwl(PtwlParams(rotation=[0.0, 0.0, misturn_rad], duration=1.0)))
+    assert turned.exit == "goal_reached"
+    run = run_onboard("tool_retrieval", 9001, sim)
+    assert run.success and run.end == "completed"
+    assert run.as_dict()["max_force_n"] < 25.0  # 18.2 N, as from an aligned start (18.4 N)
+    [close] = [s for s in run.steps if s.report.behavior == "gripper"]
+    assert close.report.peak_force < 25.0 and run.steps[close.index + 1].report.peak_force < 25.0

@@ -27,6 +27,10 @@ class GripperSpec:
     grasp_site: str  # on body2: the point and axes the port must be at to catch it
     capture_m: float = 0.006  # the jaws catch it within this of the port
     capture_rad: float = 0.2  # and with its axis within this of the tool's
+    # The part is round about its grasp axis (a knob): the jaws close on it at whatever turn it
+    # has about that axis. Otherwise they turn it to theirs, which twists a part that is held
+    # (a tool locked in its bay: 72 N from a 0.4 rad misturn).
+    round_about_axis: bool = False
 
 
 # The paper's pneumatic gripper (2.3.3, Table 1: a 51.8 N mean peak in retrieval, "largely due to
@@ -82,20 +86,33 @@ def actuate(
     if off_m > spec.capture_m or tilt_rad > spec.capture_rad:
         off = f"{1000 * off_m:.1f} mm, {math.degrees(tilt_rad):.0f} deg"
         return f"closed on nothing ({held}'s grasp point {off} off)"
-    hold(model, data, weld, jaws_relpose(model, spec, port_site))
+    turn_rad = _turn_about_axis(data, site, port_site) if spec.round_about_axis else 0.0
+    hold(model, data, weld, jaws_relpose(model, spec, port_site, turn_rad))
     return f"holding {held} (caught {1000 * off_m:.1f} mm off)"
 
 
-def jaws_relpose(model: mujoco.MjModel, spec: GripperSpec, port_site: int) -> np.ndarray:
+def _turn_about_axis(data: mujoco.MjData, site: int, port_site: int) -> float:
+    """[rad] how far the grasp site is turned about the port's z from the port's own axes: its
+    x axis's angle in the port's x-y plane (the capture keeps the tilt under 0.2 rad)."""
+    x_site = data.site_xmat[site].reshape(3, 3)[:, 0]
+    r_port = data.site_xmat[port_site].reshape(3, 3)
+    return math.atan2(float(r_port[:, 1] @ x_site), float(r_port[:, 0] @ x_site))
+
+
+def jaws_relpose(
+    model: mujoco.MjModel, spec: GripperSpec, port_site: int, turn_rad: float = 0.0
+) -> np.ndarray:
     """(7,) the pose the jaws hold a part in, its body in the tool's frame: the grasp site on the
-    port. (tool <- port) (grasp site <- part)."""
+    port, turned `turn_rad` about the port's z. (tool <- port) (turn) (grasp site <- part)."""
     site = model.site(spec.grasp_site).id
     site_inv_pos, site_inv_quat = np.zeros(3), np.zeros(4)
     mujoco.mju_negPose(site_inv_pos, site_inv_quat, model.site_pos[site], model.site_quat[site])
+    turn = np.zeros(4)
+    mujoco.mju_axisAngle2Quat(turn, np.array([0.0, 0.0, 1.0]), turn_rad)
+    port_turned = np.zeros(4)
+    mujoco.mju_mulQuat(port_turned, model.site_quat[port_site], turn)
     pos, quat = np.zeros(3), np.zeros(4)
-    mujoco.mju_mulPose(
-        pos, quat, model.site_pos[port_site], model.site_quat[port_site], site_inv_pos, site_inv_quat
-    )
+    mujoco.mju_mulPose(pos, quat, model.site_pos[port_site], port_turned, site_inv_pos, site_inv_quat)
     return np.concatenate([pos, quat])
 
 

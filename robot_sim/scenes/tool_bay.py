@@ -19,7 +19,7 @@ LOCK_DAMPING_NMS_PER_RAD = 0.02
 IN_LOCK_M = 0.016  # the legs are in the lock (at or under the tabs' top) below this lift
 LOCKED_RAD = 0.15  # turned less than this, bottomed legs are under the tabs
 BOTTOMED_M = 0.001
-GRIPPER = GripperSpec(weld="grasp", grasp_site="tool_grasp")
+GRIPPER = GripperSpec(weld="grasp", grasp_site="tool_grasp", round_about_axis=True)  # a round knob
 
 
 @dataclass(frozen=True)
