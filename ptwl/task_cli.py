@@ -9,6 +9,7 @@ import argparse
 import itertools
 import json
 import os
+import statistics
 import sys
 from concurrent.futures import ProcessPoolExecutor
 
@@ -73,6 +74,18 @@ def cmd_run(args: argparse.Namespace) -> int:
 def bench_table(task: str, runs: list[TaskRun]) -> str:
     """The paper's Tables 1-3 layout: success, then the mean of each figure over the trials."""
     rows = paper_rows([r.as_dict() for r in runs], [r.success for r in runs])
+    progress = [r.progress for r in runs]
+    rows.append(
+        (f"Progress [{runs[0].unit}] (min / mean)", f"{min(progress):.4g} / {statistics.fmean(progress):.4g}")
+    )
+    for figure in runs[0].figures:  # the machine's own (a tool exchange's cycles)
+        values = [r.figures[figure] for r in runs]
+        rows.append(
+            (
+                f"{figure.capitalize()}, by the machine (min / mean)",
+                f"{min(values):g} / {statistics.fmean(values):g}",
+            )
+        )
     lines = [f"| {task} | mean over trials |", "|---|---|"]
     return "\n".join(lines + [f"| {name} | {value} |" for name, value in rows])
 

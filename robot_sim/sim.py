@@ -152,7 +152,8 @@ class Simulation:
         self.model = model
         self.data = data
         self.layout = layout
-        self._mechanism = spec.mechanism(model) if spec.mechanism is not None else None
+        # the scene's own logic, run every tick (a latch, a lock's spring, what the bay has seen)
+        self.mechanism = spec.mechanism(model) if spec.mechanism is not None else None
         self.payload = Payload.from_model(model, layout)
         # The scene's own frames where the seed put its fixtures; an operator's are added here.
         self.frames: TaskFrames = scene_frames(spec.name, model, data)
@@ -231,8 +232,8 @@ class Simulation:
                     report = self._finish(exit_condition)
             ctl.command()
             mujoco.mj_step(self.model, data, self.n_substeps)
-            if self._mechanism is not None:
-                self._mechanism(data)
+            if self.mechanism is not None:
+                self.mechanism(data)
             if data.time <= now:
                 # MuJoCo resets the data (time included) when qpos/qvel/qacc go bad.
                 raise SimulationFault(f"MuJoCo found the simulation unstable: {_warnings(data)}")

@@ -2,7 +2,7 @@
 the behaviors they ran (Table 3 counts behaviors, not commands), short ids. On main the counts ran
 on across scenes and left out every behavior run inside a state machine."""
 
-from web.board import _history_html
+from web.board import STEPS_SHOWN, _history_html, _steps_html
 from web.history import CommandHistory
 
 
@@ -55,3 +55,16 @@ def test_the_breakdown_reads_as_the_papers_table_with_short_ids() -> None:
     assert "<td>Max force [N]</td><td style='text-align:right'>18.7</td>" in html
     assert '<td title="#1795000000000005">#…0005</td>' in html  # the full id on hover
     assert ">1795000000000005<" not in html
+
+
+def test_a_long_machine_lists_its_latest_steps_numbered_as_it_counts_them() -> None:
+    """A 100-cycle tool exchange runs ~1,500 steps: the Tasks tab lists the latest 30."""
+    steps = [{"behavior": "ptwl", "exit": "goal_reached", "why": f"step <b>{i}</b>"} for i in range(45)]
+    html = str(_steps_html(steps))
+    assert html.count("<li ") == STEPS_SHOWN == 30
+    assert 'data-count="45" start="16"' in html and "15 earlier steps not listed" in html
+    assert (
+        "step &lt;b&gt;44&lt;/b&gt;" in html and "step &lt;b&gt;14&lt;/b&gt;" not in html
+    )  # data, not markup
+    short = str(_steps_html(steps[:3]))
+    assert short.count("<li ") == 3 and 'start="1"' in short and "earlier" not in short

@@ -19,6 +19,7 @@ from robot_sim.params import DitherParams, PtwlParams, RweParams
 from robot_sim.policies import POLICIES, Finish, Machine, Policy, Step, run_onboard
 from robot_sim.policies import run as run_module
 from robot_sim.policies import sleeve_on_peg as sleeve
+from robot_sim.policies.base import MAX_STEPS
 from robot_sim.policies.sleeve_on_peg import SleeveOnPeg
 from robot_sim.sim import Simulation
 from server.client import RobotClient
@@ -104,7 +105,7 @@ def test_machine_fails_a_policy_that_never_finishes() -> None:
     step = machine.start(HOME)
     while step is not None:
         step = machine.advance(report(ExitCondition.COMPLETED, 0.0, "rwe"))
-    assert machine.exit is ExitCondition.FAILED and len(machine.steps) == run_module.MAX_STEPS
+    assert machine.exit is ExitCondition.FAILED and len(machine.steps) == MAX_STEPS == 60
     assert "still going" in machine.report().detail
 
 

@@ -93,21 +93,32 @@ def _command_html(view: Any) -> Markup:
     return line + _steps_html(view.steps)
 
 
+STEPS_SHOWN = 30  # a state machine's latest steps listed; a tool exchange runs 1,500
+
+
 def _steps_html(steps: list[dict[str, Any]]) -> Markup:
-    """A state machine's steps so far: behavior, exit and why the machine chose it."""
+    """A state machine's steps so far (the latest STEPS_SHOWN): behavior, exit and why the
+    machine chose it; numbered as the machine counts them."""
     if not steps:
         return Markup("")
     row = Markup(
         '<li data-behavior="{behavior}" data-exit="{exit}">{shown} → {exit} '
         "<span style='color:#868e96'>{why}</span></li>"
     )
+    shown = steps[-STEPS_SHOWN:]
     rows = Markup("").join(
         row.format(behavior=s["behavior"], exit=s["exit"], shown=s["behavior"].upper(), why=s["why"])
-        for s in steps
+        for s in shown
     )
-    return Markup(
-        '<ol id="ptwl-steps" data-count="{}" style="margin:2px 0 4px 20px;font-size:0.85em">{}</ol>'
-    ).format(len(steps), rows)
+    earlier = len(steps) - len(shown)
+    note = Markup("<div style='font-size:0.85em;color:#868e96'>{} earlier steps not listed</div>").format(
+        earlier
+    )
+    listed = Markup(
+        '<ol id="ptwl-steps" data-count="{}" start="{}" style="margin:2px 0 4px 20px;font-size:0.85em">'
+        "{}</ol>"
+    ).format(len(steps), earlier + 1, rows)
+    return (note if earlier else Markup("")) + listed
 
 
 def _commanded_html(view: Any, distance_mm: float | None = None) -> Markup:

@@ -35,6 +35,7 @@ class Finish:
 
 
 Decision = Step | Finish
+MAX_STEPS = 60  # behaviors; a task's machine still going after this many has lost its way
 
 
 class PolicySettings(StrictModel):
@@ -62,6 +63,15 @@ class Policy(ABC):
     @abstractmethod
     def next(self, report: BehaviorReport) -> Decision:
         """Given how the last behavior ended, the next step or the end."""
+
+    def max_steps(self) -> int:
+        """Behaviors after which the machine has lost its way (it ends `failed`): a bound on
+        what a run can record."""
+        return MAX_STEPS
+
+    def figures(self) -> dict[str, float]:
+        """Per-trial figures of the machine's own beyond the paper's (a count of cycles)."""
+        return {}
 
 
 class StagedPolicy(Policy):

@@ -8,8 +8,6 @@ from typing import Any
 from robot_sim.behaviors import BehaviorParams, BehaviorReport, ExitCondition, Pose
 from robot_sim.policies.base import Finish, Policy, Step
 
-MAX_STEPS = 60  # behaviors; a policy still going after this many has lost its way: failed
-
 
 @dataclass(frozen=True)
 class StepRecord:
@@ -65,8 +63,8 @@ class Machine:
         if isinstance(decision, Finish):
             self._end(decision, ExitCondition.COMPLETED if decision.completed else ExitCondition.FAILED)
             return None
-        if len(self.steps) >= MAX_STEPS:
-            self._end(Finish(False, f"still going after {MAX_STEPS} behaviors"), ExitCondition.FAILED)
+        if len(self.steps) >= self.policy.max_steps():
+            self._end(Finish(False, f"still going after {len(self.steps)} behaviors"), ExitCondition.FAILED)
             return None
         self.current = decision
         return decision

@@ -17,6 +17,7 @@ from robot_sim.scenes import (
     sleeve_on_peg,
     socket_wrench,
     surface,
+    tool_exchange,
     tool_retrieval,
     tool_stowage,
 )
@@ -38,6 +39,7 @@ SCENES: dict[str, Scene] = {
         berthing,
         tool_retrieval,
         tool_stowage,
+        tool_exchange,
         friction_step,
     )
 }
