@@ -16,6 +16,7 @@ The carry moves are aimed at poses remembered from the first start, in base axes
 accumulates from cycle to cycle: not the lock's turns, not what each contact left of the port.
 """
 
+import numpy as np
 from pydantic import Field
 
 from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
@@ -79,10 +80,7 @@ class ToolExchange(Policy):
     def _after(self, finished: ToolRetrieval | ToolStowage, report: BehaviorReport) -> Decision:
         self.phase = None
         if isinstance(finished, ToolRetrieval):
-            park = Pose(
-                tuple(h + d for h, d in zip(self._home().position, PARK_OFFSET_M, strict=True)),
-                self._home().quaternion,
-            )
+            park = self._offset(PARK_OFFSET_M)
             return self._carry(
                 "park", report.final_port, park, "the tool out: to the parking pose, untwisting"
             )
@@ -105,7 +103,7 @@ class ToolExchange(Policy):
         the last behavior left it: onboard, the next starts at once)."""
         self.move = move
         translation = [g - p for g, p in zip(goal.position, port.position, strict=True)]
-        rotation = rotvec_from_to(port.quaternion, goal.quaternion).tolist()
+        rotation = rotvec_from_to(np.asarray(port.quaternion), np.asarray(goal.quaternion)).tolist()
         params = PtwlParams(
             translation=translation,
             rotation=rotation,
@@ -121,8 +119,8 @@ class ToolExchange(Policy):
 
     def _offset(self, by_m: tuple[float, float, float]) -> Pose:
         """The first start's pose moved `by_m` in base axes, not turned."""
-        home = self._home()
-        return Pose(tuple(h + d for h, d in zip(home.position, by_m, strict=True)), home.quaternion)
+        (x, y, z), (dx, dy, dz) = self._home().position, by_m
+        return Pose((x + dx, y + dy, z + dz), self._home().quaternion)
 
     def _home(self) -> Pose:
         assert self.home is not None, "next() before first()"
