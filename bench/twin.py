@@ -4,7 +4,10 @@ space and in contact (issue 14's closing figures), on ptwl/experiments/twin/tria
 For each case: the twin's port error against the telemetry that later shows the same instant
 (max and p95 over every state judged, mm), and as the baseline the same states against the
 delayed picture an operator has without a twin (the port a round trip earlier), measured in the
-same run; `ratio` is twin max over delayed max. Also the twin's cost: wall seconds of one
+same run; `ratio` is twin max over delayed max. With model error (`model_error`: the robot's
+fixture moved from where any model says) the same against a twin that keeps its nominal model
+and one that registers the fixture from the robot's contacts, overall and after the first
+contact could be known (the only part a twin can get right). Also the twin's cost: wall seconds of one
 restart-and-run over a round trip (what each 0.5 s resync costs the console), and of a 10 s
 preview (issue 14: "well under a second"), with as its baseline the same move run on a plain
 simulation in the same run (`ratio`: the preview's overhead over the physics and controller).
@@ -15,7 +18,13 @@ simulation in the same run (`ratio`: the preview's overhead over the physics and
 import json
 import time
 
-from ptwl.experiments.twin.trial import contact_moves, free_space_moves, run_trial
+from ptwl.experiments.twin.trial import (
+    contact_moves,
+    contact_moves_and_back,
+    free_space_moves,
+    robot_with_model_error,
+    run_trial,
+)
 from robot_sim.behaviors import BehaviorParams, behavior_for
 from robot_sim.params import PtwlParams
 from robot_sim.sim import Simulation
@@ -33,6 +42,42 @@ CASES: dict[str, tuple[str, int | None, list[tuple[float, BehaviorParams]], floa
     "contact_press_and_slide": ("surface", 3, contact_moves(), 10.0),
     "contact_insertion_misaligned_peg": ("sleeve_on_peg", 5, INSERTION, 8.0),
 }
+# Issue 29 point 6: the robot's fixture where no model says (its seeded place, then moved):
+# (scene, seed, shift [m], tilt [deg], moves, seconds). Run with the twin keeping its nominal
+# model and with it registering the fixture from the robot's contacts.
+MODEL_ERRORS: dict[
+    str, tuple[str, int, tuple[float, float, float], float, list[tuple[float, BehaviorParams]], float]
+] = {
+    "plate_1mm_low": ("surface", 3, (0.0, 0.0, -0.001), 0.0, contact_moves_and_back(), 15.0),
+    "plate_3mm_low_tilted_2deg": ("surface", 3, (0.0, 0.0, -0.003), 2.0, contact_moves_and_back(), 15.0),
+    "plate_2mm_high": ("surface", 3, (0.0, 0.0, 0.002), 0.0, contact_moves_and_back(), 15.0),
+    "peg_2mm_low_1mm_aside_tilted_1deg": ("sleeve_on_peg", 5, (0.001, 0.0, -0.002), 1.0, INSERTION, 12.0),
+}
+
+
+def model_error_rows(
+    scene: str,
+    seed: int,
+    shift_m: tuple[float, float, float],
+    tilt_deg: float,
+    moves: list[tuple[float, BehaviorParams]],
+    seconds: float,
+) -> dict[str, dict[str, object]]:
+    rows: dict[str, dict[str, object]] = {}
+    for rtt in RTTS_S:
+        row: dict[str, object] = {}
+        for twin, register in (("nominal_twin", False), ("registering_twin", True)):
+            result = run_trial(
+                robot_with_model_error(scene, seed, shift_m, tilt_deg), rtt, moves, seconds, register=register
+            )
+            after = result.after_contact_max_mm
+            row[twin] = {
+                "max_mm": round(result.max_mm, 2),
+                "after_first_contact_max_mm": None if after is None else round(after, 2),
+            }
+            row["delayed_picture_max_mm"] = round(result.delayed_max_mm, 1)
+        rows[f"{rtt:g}s"] = row
+    return rows
 
 
 def restart_cost_s(rtt_s: float) -> float:
@@ -88,6 +133,7 @@ def main() -> None:
                 "states_judged": len(result.errors_m),
             }
         out[name] = rows
+    out["model_error"] = {name: model_error_rows(*case) for name, case in MODEL_ERRORS.items()}
     out["restart_cost_s"] = {f"{rtt:g}s": round(restart_cost_s(rtt), 3) for rtt in RTTS_S}
     out["preview_10s_move"] = preview_cost_s()
     print(json.dumps(out))

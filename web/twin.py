@@ -24,18 +24,22 @@ from typing import Any
 from robot_sim.task_frames import TaskFrames
 from web.twin_inbox import TwinInbox
 from web.twin_judge import PredictionJudge
+from web.twin_registration import Registered
 from web.twin_sim import Prediction, Sent, TwinPoint, TwinSim, arrival_sim_s, robot_wall_s
 
 RESYNC_S = 0.5  # [s] wall time between restarts from the latest telemetry
 
 
 class GroundTwin:
-    def __init__(self, uplink_s: Callable[[], float]) -> None:
+    def __init__(self, uplink_s: Callable[[], float], register: bool = True) -> None:
+        """`register`: move the twin's fixture to where the robot's contacts say it is
+        (web/twin_registration.py); False keeps the nominal model (for comparison)."""
         self._uplink_s = uplink_s
         self._lock = threading.Lock()  # the inbox and the judge: fed from any thread
         self._inbox = TwinInbox()
         self._judge = PredictionJudge()
-        self._sim = TwinSim()  # the twin's thread's alone
+        self._sim = TwinSim(register)  # the twin's thread's alone
+        self.registered: Registered | None = None  # where the twin put its fixture, if it moved it
         self._resynced_wall = float("-inf")
         self.latest: Prediction | None = None
         self.point: TwinPoint | None = None
@@ -121,6 +125,12 @@ class GroundTwin:
         # What the ghost shows, every RECORD_S: a restart's replay up to there is not recorded.
         self._sim.run_to(target_s, self._keep)
         self.latest = self._sim.prediction()
+        registration = self._sim.registration
+        self.registered = (
+            registration.registered()
+            if registration is not None and registration.registered().samples
+            else None
+        )
         self.advanced_wall = now_wall
         self.point = self._sim.point(self.frames)
         return self.latest

@@ -21,6 +21,7 @@ from robot_sim.pose_math import rotvec_from_to
 from robot_sim.sim import Simulation
 from robot_sim.task_frames import TaskFrames
 from robot_sim.telemetry import gains_of
+from web.twin_registration import FixtureRegistration
 
 
 @dataclass
@@ -122,8 +123,10 @@ def remaining_ptwl(message: dict[str, Any], port: Pose, elapsed_s: float) -> Ptw
 
 
 class TwinSim:
-    def __init__(self) -> None:
+    def __init__(self, register: bool = True) -> None:
         self.sim: Simulation | None = None
+        self._register = register  # the fixture from the robot's contacts (False: the nominal model)
+        self.registration: FixtureRegistration | None = None
         self._moving: list[int] = []  # the bodies that move, as the ghost draws them
         self._queue: deque[tuple[BehaviorParams, float]] = deque()  # (params, not before [sim s])
 
@@ -133,6 +136,8 @@ class TwinSim:
             return False
         self.sim = Simulation(scene)
         self._moving = moving_bodies(self.sim.model)
+        applies = self._register and FixtureRegistration.applies_to(self.sim)
+        self.registration = FixtureRegistration(self.sim) if applies else None
         return True
 
     def restart(
@@ -153,6 +158,8 @@ class TwinSim:
         if gains_now.frame not in frames.names():  # a frame whose news is still on the link
             gains_now = gains_now.in_frame("base")
         sim.sync_to(t_state, state["joint_positions"], _pose(state["attractor"]), gains_now)
+        if self.registration is not None:  # before it runs on: never from inside its own fixture
+            self.registration.observe(sim, float(np.linalg.norm(state["wrench"][0:3])))
         self._queue.clear()
         if running is not None and running.get("started_at") is not None:
             elapsed_s = taken_at - float(running["started_at"])  # both the robot's wall clock

@@ -55,7 +55,9 @@ def twin_readout(now_wall: float, twin: GroundTwin) -> tuple[TwinTrust, str]:
     cannot be believed now (with the last judgment, if any)."""
     trust = judge_twin(now_wall, twin.advanced_wall, twin.judged_wall(), twin.stop_sent_wall)
     judged = describe_error(twin.error_summary())
+    # The twin's model is not the nominal one: say how not.
+    model = "" if twin.registered is None else f"; {twin.registered.describe()}"
     if trust.sure:
-        return trust, judged
+        return trust, judged + model
     last = "" if judged == "not judged yet" else f" (last judged: {judged})"
-    return trust, f"UNSURE: {trust.reason}{last}"
+    return trust, f"UNSURE: {trust.reason}{last}{model}"

@@ -10,6 +10,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+import mujoco
 import numpy as np
 
 from robot_sim.behaviors import BehaviorParams
@@ -21,7 +22,8 @@ from robot_sim.sim import Simulation
 from robot_sim.task_frames import TaskFrames
 from robot_sim.telemetry import state_fields
 from server.commands import command_message
-from web.twin import GroundTwin, Sent
+from web.twin import RESYNC_S, GroundTwin, Sent
+from web.twin_registration import CONTACT_N
 
 STATE_S = 0.02  # telemetry at 50 Hz
 TWIN_TICK_S = 0.02  # the console's twin thread runs every 20 ms
@@ -37,6 +39,9 @@ class TrialResult:
     send_to_move_s: list[float] = field(
         default_factory=list
     )  # wall time from a send to the twin's port moving
+    judged_sim_s: list[float] = field(default_factory=list)  # the sim time of each state in errors_m
+    first_contact_sim_s: float | None = None  # the first state the robot sent touching (|f| >= CONTACT_N)
+    rtt_s: float = 0.0
 
     @property
     def max_mm(self) -> float:
@@ -50,6 +55,17 @@ class TrialResult:
     def delayed_max_mm(self) -> float:
         return 1000.0 * max(self.delayed_m)
 
+    @property
+    def after_contact_max_mm(self) -> float | None:
+        """Max error over the states predicted after the twin could know of the first contact:
+        the console hears it a downlink after, the twin registers at its next restart, and its
+        predictions lead by the uplink (sim time >= contact + rtt + RESYNC_S). None: no contact."""
+        if self.first_contact_sim_s is None:
+            return None
+        since = self.first_contact_sim_s + self.rtt_s + RESYNC_S
+        after = [e for e, t in zip(self.errors_m, self.judged_sim_s, strict=True) if t >= since]
+        return 1000.0 * max(after) if after else None
+
 
 def run_trial(
     robot: Simulation,
@@ -61,13 +77,15 @@ def run_trial(
     send_lag_s: float = 0.0,
     stamps_taken_at: bool = True,
     stall_s: float = 0.0,
+    register: bool = True,
 ) -> TrialResult:
     """`sends`: (virtual seconds from the start, params), sent from the console; the link splits
     `rtt_s` evenly; `send_lag_s`: how long after it is taken each state leaves the robot (its
     event loop busy); `stamps_taken_at` False: a robot from before `taken_at`; `stall_s`: the
     twin's thread misses its ticks for this long before each send, waking just after it (the
-    console's process starved of CPU). Returns every prediction error the console would have shown."""
-    trial = TwinTrial(robot, rtt_s, sends, ack_lag_s, send_lag_s, stamps_taken_at, stall_s)
+    console's process starved of CPU); `register` False: the twin keeps its nominal fixture.
+    Returns every prediction error the console would have shown."""
+    trial = TwinTrial(robot, rtt_s, sends, ack_lag_s, send_lag_s, stamps_taken_at, stall_s, register)
     while trial.elapsed_s < seconds:
         trial.tick()
     if twin_scene_check is not None:
@@ -89,11 +107,12 @@ class TwinTrial:
         send_lag_s: float,
         stamps_taken_at: bool,
         stall_s: float,
+        register: bool = True,
     ) -> None:
         self.robot, self.rtt_s = robot, rtt_s
         self.up_s = self.down_s = rtt_s / 2.0
         self.ack_lag_s, self.send_lag_s, self.stamps_taken_at = ack_lag_s, send_lag_s, stamps_taken_at
-        self.twin = GroundTwin(uplink_s=lambda: self.up_s)
+        self.twin = GroundTwin(uplink_s=lambda: self.up_s, register=register)
         self.twin.frames = TaskFrames(robot.frames.all())  # as the console heard them (GET /api/frames)
         self.book = CommandBook(COMMAND_QUEUE_MAX, COMMAND_HISTORY_MAX, self._wall, self._changed)
         self.commands = CommandRunner(robot, self.book)
@@ -103,7 +122,7 @@ class TwinTrial:
         self.pending_sends = sorted(sends, key=lambda s: s[0])
         # Held up until just after the send: the thread wakes to a send it has not run to yet.
         self.stalls = [(at - stall_s, at + 0.005) for at, _ in self.pending_sends if stall_s > 0.0]
-        self.result = TrialResult([])
+        self.result = TrialResult([], rtt_s=rtt_s)
         self.next_state = self.next_tick = 0.0
         self.moved_after: list[tuple[float, np.ndarray]] = []  # (send wall, twin port then)
         self.history: list[tuple[float, np.ndarray]] = []  # the robot's (sim time, port) as sent
@@ -162,6 +181,9 @@ class TwinTrial:
         # As the robot sends it: taken now, leaving send_lag_s later.
         taken_at = WALL0 + robot.time
         state = {**state_fields(robot, []), "sent_at": taken_at + self.send_lag_s}
+        touching = float(np.linalg.norm(state["wrench"][0:3])) >= CONTACT_N
+        if touching and self.result.first_contact_sim_s is None:
+            self.result.first_contact_sim_s = robot.time
         if self.stamps_taken_at:
             state["taken_at"] = taken_at
         self.to_console.append((wall + self.send_lag_s + self.down_s, "state", state))
@@ -178,6 +200,7 @@ class TwinTrial:
             error = self.twin.on_state(message, arrival)
             if error is not None:
                 self.result.errors_m.append(error)
+                self.result.judged_sim_s.append(float(message["sim_time"]))
                 then = _port_at(self.history, float(message["sim_time"]) - self.rtt_s)
                 shown = np.asarray(message["port"]["position"])
                 self.result.delayed_m.append(float(np.linalg.norm(shown - then)))
@@ -219,3 +242,28 @@ def contact_moves() -> list[tuple[float, BehaviorParams]]:
         (1.0, PtwlParams(translation=[0.0, 0.0, -0.045], frame="base", duration=2.0, watchdog=3.0)),
         (4.5, PtwlParams(translation=[0.0, 0.04, -0.002], frame="base", duration=2.5, force_threshold=40.0)),
     ]
+
+
+def contact_moves_and_back() -> list[tuple[float, BehaviorParams]]:
+    """`contact_moves`, then a slide back along the plate at 9 s: something to predict after a
+    5 s round trip has brought the first contact down."""
+    back = PtwlParams(translation=[0.0, -0.04, 0.0], frame="base", duration=2.5, force_threshold=40.0)
+    return [*contact_moves(), (9.0, back)]
+
+
+def robot_with_model_error(
+    scene: str, seed: int | None, shift_m: tuple[float, float, float], tilt_deg: float = 0.0
+) -> Simulation:
+    """A robot whose fixture is not where any model says: the scene's seeded layout, then its
+    fixture moved `shift_m` (base axes) and tilted `tilt_deg` about x. The twin, which knows the
+    nominal scene, must find it from the contacts (web/twin_registration.py)."""
+    robot = Simulation(scene, seed)
+    assert robot.scene.fixture_body is not None, f"{scene} has no fixture to move"
+    body = robot.model.body(robot.scene.fixture_body).id
+    robot.model.body_pos[body] += np.asarray(shift_m)
+    tilt, turned = np.zeros(4), np.zeros(4)
+    mujoco.mju_axisAngle2Quat(tilt, np.array([1.0, 0.0, 0.0]), np.radians(tilt_deg))
+    mujoco.mju_mulQuat(turned, tilt, robot.model.body_quat[body].copy())
+    robot.model.body_quat[body] = turned
+    mujoco.mj_forward(robot.model, robot.data)
+    return robot
