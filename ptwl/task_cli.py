@@ -109,7 +109,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
         runs = list(tqdm(trials, total=len(seeds), desc=args.task, unit="trial", file=sys.stderr))
     print(bench_table(args.task, runs))
     ours = paper_rows([r.as_dict() for r in runs], [r.success for r in runs])
-    if beside := beside_paper(args.task, ours, "ours"):
+    heading = "ours" if args.gripper_close_s is None else f"ours, gripper_close_s {args.gripper_close_s:g}"
+    if beside := beside_paper(args.task, ours, heading):
         print("\n".join(["", *beside]))
     return 0
 
@@ -141,6 +142,6 @@ def add_scene_options(parser: argparse.ArgumentParser) -> None:
         type=float,
         default=None,
         metavar="S",
-        help=f"the gripper's closing time constant, [{low}, {high}] s (default: the scene's own, 0.01; "
+        help=f"the gripper's closing time constant, [{low}, {high}] s (default: the tool bay's own, 0.01; "
         f"{PNEUMATIC_CLOSE_S}: the paper's pneumatic gripper and its closing impact)",
     )

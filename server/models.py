@@ -227,7 +227,9 @@ class HealthModel(BaseModel):
     long_polls: int = Field(description="GET /api/commands/{id}?wait= requests open now")
 
 
-_GRIPPER_SCENES: list[JsonValue] = [name for name, scene in SCENES.items() if scene.gripper is not None]
+_GRIPPER_SCENES: list[JsonValue] = [
+    name for name, scene in SCENES.items() if scene.gripper is not None and not scene.gripper.held_from_start
+]
 
 
 class SceneRequest(BaseModel):
@@ -254,7 +256,8 @@ class SceneRequest(BaseModel):
         None,
         description=(
             f"[s] the gripper's closing time constant, [{GRIPPER_CLOSE_S[0]}, {GRIPPER_CLOSE_S[1]}], on a "
-            f"scene whose tool has one; null for the scene's own (0.01, gentle). {PNEUMATIC_CLOSE_S}: "
+            f"scene whose gripper closes on a part (the tool bay's); null for the scene's own (0.01, "
+            f"gentle). {PNEUMATIC_CLOSE_S}: "
             "the paper's pneumatic gripper, whose closing impact peaks near its 52 N"
         ),
     )

@@ -14,7 +14,9 @@ from robot_sim.behaviors.rwe import Rwe
 from robot_sim.params import PtwlParams, RweParams
 from robot_sim.sim import Simulation
 from web.twin import GroundTwin
-from web.twin_registration import MAX_SHIFT_M, FixtureRegistration
+from web.twin_inbox import TwinInbox
+from web.twin_registration import MAX_SHIFT_M, WINDOW, FixtureRegistration
+from web.twin_sim import TwinSim
 from web.twin_trust import twin_readout
 
 
@@ -81,6 +83,71 @@ def test_a_twin_inside_its_fixture_while_the_robot_is_free_moves_it_out_and_neve
     assert inside is not None and inside[0] < 0.0  # the contact's own overlap
     registration.observe(twin, force_n=0.0)  # the robot free there: the plate is lower
     assert registration.registered().shift_m[2] == pytest.approx(inside[0], abs=1e-5)
-    registration._equations.extend([(np.array([0.0, 0.0, 1.0]), 0.05)] * 5)  # 50 mm: not a small error
+    registration._equations.extend([(np.array([0.0, 0.0, 1.0]), 0.05, False)] * 5)  # 50 mm: no small error
     registration._solve()
     assert float(np.linalg.norm(registration.registered().shift_m)) == pytest.approx(MAX_SHIFT_M)
+
+
+def test_a_free_robot_bounds_the_fixture_and_a_touching_one_places_it() -> None:
+    """Free where the twin overlaps 0.5 mm: the plate is at least 0.5 mm lower, not exactly; a
+    touch 2 mm lower is the fit (a least-squares average of the two would put it 1.25 mm low)."""
+    twin = pressed(0.002)
+    registration = FixtureRegistration(twin)
+    up = np.array([0.0, 0.0, 1.0])
+    registration._equations.extend([(up, -0.0005, True), (up, -0.002, False)])
+    registration._solve()
+    assert registration.registered().shift_m[2] == pytest.approx(-0.002, abs=1e-9)
+    registration._equations.clear()
+    registration._equations.extend([(up, -0.0005, True), (up, 0.001, False)])  # the touch breaks the bound
+    registration._solve()
+    assert registration.registered().shift_m[2] == pytest.approx((-0.0005 + 0.001) / 2, abs=1e-9)
+
+
+def test_a_reload_forgets_the_layout_and_a_remade_model_gets_the_shift_again() -> None:
+    twin = pressed(0.002)
+    registration = FixtureRegistration(twin)
+    plate = twin.model.body("plate_body").id
+    nominal = twin.model.body_pos[plate].copy()
+    registration.observe(twin, force_n=12.0)  # the robot touching where the twin's tool is 2 mm up
+    assert twin.model.body_pos[plate][2] == pytest.approx(nominal[2] + 0.002, abs=2e-4)
+    twin.reset("surface")  # the twin's own fault reloads its scene: a model made anew, nominal
+    assert twin.model.body_pos[plate][2] == pytest.approx(nominal[2])
+    registration.observe(twin, force_n=0.0)  # the shift is put back before anything is measured
+    assert twin.model.body_pos[plate][2] == pytest.approx(nominal[2] + 0.002, abs=2e-4)
+    registration.forget(twin)  # the robot reloaded its scene: nothing of the old layout stays
+    assert registration.registered().samples == 0 and registration.registered().moved_mm == 0.0
+    assert twin.model.body_pos[plate][2] == pytest.approx(nominal[2])
+
+
+def test_the_twin_hears_a_reload_once_and_forgets_its_fixture_then() -> None:
+    inbox = TwinInbox()
+    inbox.state_arrived({"sim_time": 5.0})
+    assert not inbox.take().reloaded
+    inbox.state_arrived({"sim_time": 0.02})  # sim time went back: the robot reloaded its scene
+    inbox.state_arrived({"sim_time": 0.04})
+    assert inbox.take().reloaded and not inbox.take().reloaded
+    twin = TwinSim()
+    twin.load("surface")
+    assert twin.registration is not None and twin.sim is not None
+    plate = twin.sim.model.body("plate_body").id
+    nominal = twin.sim.model.body_pos[plate].copy()
+    twin.registration._equations.append((np.array([0.0, 0.0, 1.0]), -0.001, False))
+    twin.registration._solve()
+    twin.registration._place(twin.sim)
+    twin.forget_registration()
+    assert (
+        np.array_equal(twin.sim.model.body_pos[plate], nominal)
+        and twin.registration.registered().samples == 0
+    )
+    assert TwinSim(register=False).load("surface")  # the nominal twin: no registration at all
+
+
+def test_the_fit_rests_on_the_last_20_restarts_only() -> None:
+    """An old layout's evidence goes out of the window: 25 touches, the first 5 of another place."""
+    registration = FixtureRegistration(Simulation("surface"))
+    up = np.array([0.0, 0.0, 1.0])
+    for d0 in [0.004] * 5 + [-0.001] * 20:
+        registration._equations.append((up, d0, False))
+    registration._solve()
+    assert registration.registered().samples == WINDOW == 20
+    assert registration.registered().shift_m[2] == pytest.approx(-0.001, abs=1e-12)

@@ -28,6 +28,7 @@ from web.twin_registration import Registered
 from web.twin_sim import Prediction, Sent, TwinPoint, TwinSim, arrival_sim_s, robot_wall_s
 
 RESYNC_S = 0.5  # [s] wall time between restarts from the latest telemetry
+SHOWN_FROM_MM = 0.1  # a fixture the twin moved less than this is where its model says: not shown
 
 
 class GroundTwin:
@@ -115,6 +116,8 @@ class GroundTwin:
         t_state, taken_at = float(state["sim_time"]), robot_wall_s(state)
         target_s = arrival_sim_s(t_state, taken_at, now_wall, uplink_s)  # a command sent now
         new_model = self._sim.load(state["scene"])
+        if heard.reloaded and not new_model:  # the same scene again: its fixture may be elsewhere now
+            self._sim.forget_registration()
         if new_model or heard.resync_due or now_wall - self._resynced_wall >= RESYNC_S:
             self._sim.restart(state, heard.running, heard.sent, uplink_s, self.frames)
             self._resynced_wall = now_wall
@@ -126,10 +129,9 @@ class GroundTwin:
         self._sim.run_to(target_s, self._keep)
         self.latest = self._sim.prediction()
         registration = self._sim.registration
+        registered = registration.registered() if registration is not None else None
         self.registered = (
-            registration.registered()
-            if registration is not None and registration.registered().samples
-            else None
+            registered if registered is not None and registered.moved_mm >= SHOWN_FROM_MM else None
         )
         self.advanced_wall = now_wall
         self.point = self._sim.point(self.frames)

@@ -19,6 +19,7 @@ class Heard:
     sent: list[Sent]  # not started by the robot yet, oldest first
     new: list[Sent]  # sent since the last advance
     resync_due: bool  # restart from `state` now, not at the next RESYNC_S
+    reloaded: bool  # the robot's scene was (re)loaded since the last advance: a new layout
 
 
 class TwinInbox:
@@ -31,12 +32,14 @@ class TwinInbox:
         self._started_stamps: deque[float] = deque(maxlen=256)
         self._new: list[Sent] = []
         self.resync_due = False
+        self._reloaded = False
         self.stop_sent_wall: float | None = None  # [s] a STOP sent, not confirmed yet
 
     def state_arrived(self, state: dict[str, Any]) -> bool:
         """True if the robot's scene was (re)loaded (its sim time went back): restart from it."""
         reloaded = self.state is not None and float(state["sim_time"]) < float(self.state["sim_time"])
         self.resync_due = self.resync_due or reloaded
+        self._reloaded = self._reloaded or reloaded
         self.state = state
         return reloaded
 
@@ -69,7 +72,7 @@ class TwinInbox:
     def take(self) -> Heard:
         started = set(self._started_stamps)
         self._sent = [s for s in self._sent if s.pending() and s.sent_wall not in started]
-        heard = Heard(self.state, self._running, list(self._sent), self._new, self.resync_due)
+        heard = Heard(self.state, self._running, list(self._sent), self._new, self.resync_due, self._reloaded)
         self._new = []
-        self.resync_due = False
+        self.resync_due = self._reloaded = False
         return heard

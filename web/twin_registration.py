@@ -8,12 +8,13 @@ slide the robot goes on with. So at each restart (the twin at the robot's report
 compares the two: the robot's measured force says whether the tool touches (at the tasks' forces
 the contacts give < 0.1 mm); the twin's model gives the signed distance d between tool and
 fixture and its normal n. Moving the fixture by x changes that distance to d - n.x, so each
-informative restart is one linear equation n.x = d0 - target (d0: the distance with the fixture
-at its nominal place), and the fixture goes where the last WINDOW of them agree best in least
-squares (the least shift where they say nothing, e.g. sideways under a press):
+informative restart says one thing of the shift x (d0: the distance with the fixture at its
+nominal place), and the fixture goes where the last WINDOW of them agree best in least squares
+(the least shift where they say nothing, e.g. sideways under a press):
 
-    the robot touches (|f| >= CONTACT_N)         target 0: the twin must touch too
-    the robot is free, the twin's tool is inside target 0: the twin must not overlap
+    the robot touches (|f| >= CONTACT_N)         n.x = d0: the twin must touch too
+    the robot is free, the twin's tool is inside n.x <= d0: the fixture is at least that far off
+                                                 (a bound, kept only where the fit breaks it)
 
 A free robot and a free twin say nothing. Translation only: a tilt of 1-2 degrees moves a 25 mm
 face by under 0.5 mm. Not thread-safe: the twin's thread alone runs it.
@@ -66,7 +67,8 @@ class FixtureRegistration:
         self.name = sim.scene.fixture_body
         self._nominal = model.body_pos[self.body].copy()
         self._shift = np.zeros(3)
-        self._equations: deque[tuple[np.ndarray, float]] = deque(maxlen=WINDOW)  # (n, d0 - target)
+        # (n, d0, a bound only): n.x = d0, or n.x <= d0 for a bound
+        self._equations: deque[tuple[np.ndarray, float, bool]] = deque(maxlen=WINDOW)
         fixture = _subtree(model, self.body)
         tool = [b for b in range(model.nbody) if model.body(b).name.startswith(ARM_PREFIX + TOOL_PREFIX)]
         self._pairs = [
@@ -84,15 +86,27 @@ class FixtureRegistration:
     def observe(self, sim: Simulation, force_n: float) -> None:
         """The twin has just been put at the robot's reported joints; the robot measured `force_n`
         [N]. Adds what this says of the fixture, solves, and moves the twin's fixture."""
+        if not np.array_equal(sim.model.body_pos[self.body], self._nominal + self._shift):
+            self._place(sim)  # a model made anew (the twin's own fault reloads its scene)
         found = self._closest(sim)
         if found is None:
             return
         distance_m, normal = found
-        if force_n < CONTACT_N and distance_m >= 0.0:
+        touching = force_n >= CONTACT_N
+        if not touching and distance_m >= 0.0:
             return  # both free: nothing learnt
         d0 = distance_m + float(normal @ self._shift)  # with the fixture at its nominal place
-        self._equations.append((normal, d0))  # target 0: touching, or not overlapping
+        # Touching: n.x = d0. Free while the twin overlaps (d0 < 0): only a bound, n.x <= d0
+        # (the real distance d0 - n.x is >= 0: the fixture is at least that far off; how much
+        # farther, this does not say).
+        self._equations.append((normal, d0, not touching))
         self._solve()
+        self._place(sim)
+
+    def forget(self, sim: Simulation) -> None:
+        """Back to the nominal place, with no evidence (the robot's scene reloaded)."""
+        self._shift = np.zeros(3)
+        self._equations.clear()
         self._place(sim)
 
     def registered(self) -> Registered:
@@ -112,9 +126,22 @@ class FixtureRegistration:
         return best
 
     def _solve(self) -> None:
-        normals = np.array([n for n, _ in self._equations])
-        wanted = np.array([b for _, b in self._equations])
-        shift, *_ = np.linalg.lstsq(normals, wanted, rcond=1e-3)  # least norm where unseen
+        """Least squares over the equations, with each bound the fit breaks taken as an
+        equation too (an active set: a few rounds suffice for a handful of bounds)."""
+        equalities = [(n, d0) for n, d0, bound in self._equations if not bound]
+        bounds = [(n, d0) for n, d0, bound in self._equations if bound]
+        shift = np.zeros(3)
+        active: list[tuple[np.ndarray, float]] = []
+        for _ in range(1 + len(bounds)):
+            rows = equalities + active
+            if rows:
+                shift, *_ = np.linalg.lstsq(
+                    np.array([n for n, _ in rows]), np.array([d0 for _, d0 in rows]), rcond=1e-3
+                )  # least norm where unseen
+            broken = [(n, d0) for n, d0 in bounds if float(n @ shift) > d0 + MIN_DISTANCE_M]
+            if not broken:
+                break
+            active += [row for row in broken if not any(row is kept for kept in active)]
         size = float(np.linalg.norm(shift))
         self._shift = shift if size <= MAX_SHIFT_M else shift * (MAX_SHIFT_M / size)
 

@@ -140,6 +140,12 @@ class TwinSim:
         self.registration = FixtureRegistration(self.sim) if applies else None
         return True
 
+    def forget_registration(self) -> None:
+        """The robot reloaded its scene (a new seed, a reset): what its contacts said of the old
+        layout goes, and the twin's fixture back to its nominal place."""
+        if self.registration is not None and self.sim is not None:
+            self.registration.forget(self.sim)
+
     def restart(
         self,
         state: dict[str, Any],

@@ -55,8 +55,9 @@ def twin_readout(now_wall: float, twin: GroundTwin) -> tuple[TwinTrust, str]:
     cannot be believed now (with the last judgment, if any)."""
     trust = judge_twin(now_wall, twin.advanced_wall, twin.judged_wall(), twin.stop_sent_wall)
     judged = describe_error(twin.error_summary())
+    registered = twin.registered  # once: the twin's thread replaces it
     # The twin's model is not the nominal one: say how not.
-    model = "" if twin.registered is None else f"; {twin.registered.describe()}"
+    model = "" if registered is None else f"; {registered.describe()}"
     if trust.sure:
         return trust, judged + model
     last = "" if judged == "not judged yet" else f" (last judged: {judged})"

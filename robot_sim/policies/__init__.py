@@ -96,6 +96,8 @@ def run_onboard(
 ) -> TaskRun:
     """Run `task`'s state machine on `sim` (default: a fresh one of the task's scene, `seed`,
     its gripper closing with time constant `gripper_close_s`)."""
+    if sim is not None and gripper_close_s is not None:
+        raise ValueError("gripper_close_s is the scene's: give it to the Simulation passed in, not here")
     machine = Machine(policy_for(task, overrides))
     sim = sim or Simulation(task, seed, gripper_close_s=gripper_close_s)
     step: Step | None = machine.start(sim.state().port)

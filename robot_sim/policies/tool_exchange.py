@@ -25,6 +25,7 @@ from robot_sim.policies.base import Decision, Finish, Policy, PolicySettings, St
 from robot_sim.policies.tool_retrieval import ToolRetrieval
 from robot_sim.policies.tool_stowage import ToolStowage
 from robot_sim.pose_math import rotvec_from_to
+from robot_sim.scenes.tool_exchange import EXCHANGES_WANTED
 
 PARK_OFFSET_M = (0.0, 0.12, 0.06)  # [m] base axes, from the start: aside and up, clear of the bay
 OVER_M = 0.04  # [m] over the start, on the way back: the legs above the bay's 40 mm walls
@@ -33,7 +34,12 @@ STEPS_PER_CYCLE = 15  # retrieval 5, park, carry back and lower 3, stowage 6, re
 
 
 class ToolExchangeSettings(PolicySettings):
-    cycles: int = Field(100, ge=1, le=100, description="exchanges to run: retrieve, park, stow")
+    cycles: int = Field(
+        EXCHANGES_WANTED,
+        ge=1,
+        le=EXCHANGES_WANTED,
+        description="exchanges to run: retrieve, park, stow (the task asks for 100 in a row)",
+    )
 
 
 class ToolExchange(Policy):

@@ -68,5 +68,5 @@ SCENE = Scene(
     _berthing,
     held_from_start("grasp"),
     randomise=_posts_misplaced,
-    gripper=GripperSpec(weld="grasp", grasp_site="handle_grasp"),
+    gripper=GripperSpec(weld="grasp", grasp_site="handle_grasp", held_from_start=True),
 )

@@ -85,5 +85,5 @@ SCENE = Scene(
     _door,
     _latch,
     randomise=_hinge_from_knob,
-    gripper=GripperSpec(weld="grasp", grasp_site="knob_grasp"),
+    gripper=GripperSpec(weld="grasp", grasp_site="knob_grasp", held_from_start=True),
 )

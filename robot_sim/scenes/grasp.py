@@ -31,6 +31,9 @@ class GripperSpec:
     # has about that axis. Otherwise they turn it to theirs, which twists a part that is held
     # (a tool locked in its bay: 72 N from a 0.4 rad misturn).
     round_about_axis: bool = False
+    # The grasp is the task's start and the jaws never close on the part (a door's knob, a
+    # sled's handle): its weld's time constant is how stiffly it is held, not a closing.
+    held_from_start: bool = False
 
 
 # The paper's pneumatic gripper (2.3.3, Table 1: a 51.8 N mean peak in retrieval, "largely due to
@@ -44,7 +47,8 @@ class GripperCloseError(RobotSimError, ValueError):
 
 
 def check_close_time(scene: str, gripper: "GripperSpec | None", close_s: float | None) -> None:
-    """The one check of a scene's `gripper_close_s`: a number in range, on a scene with a gripper."""
+    """The one check of a scene's `gripper_close_s`: a number in range, on a scene whose gripper
+    closes on a part (the tool bay's)."""
     if close_s is None:
         return
     low, high = GRIPPER_CLOSE_S
@@ -52,6 +56,10 @@ def check_close_time(scene: str, gripper: "GripperSpec | None", close_s: float |
         raise GripperCloseError(f"gripper_close_s must be in [{low}, {high}] s, got {close_s}")
     if gripper is None:
         raise GripperCloseError(f"gripper_close_s: the {scene} scene's tool has no gripper")
+    if gripper.held_from_start:
+        raise GripperCloseError(
+            f"gripper_close_s: the {scene} scene's gripper holds its part from the start, never closing on it"
+        )
 
 
 def close_time(model: mujoco.MjModel, gripper: GripperSpec) -> float:
