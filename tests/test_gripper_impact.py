@@ -72,6 +72,11 @@ def test_the_closing_time_is_checked_once_and_kept_across_a_faults_reload() -> N
     for bad in (low / 2, high * 2, float("nan")):
         with pytest.raises(RobotSimError, match=r"gripper_close_s must be in \[0.002, 0.05\] s"):
             check_close_time("tool_retrieval", get_scene("tool_retrieval").gripper, bad)
+    for held in ("door", "berthing"):  # the grasp is their start: its weld holds, never closes
+        with pytest.raises(
+            GripperCloseError, match=f"the {held} scene's gripper holds its part from the start"
+        ):
+            check_close_time(held, get_scene(held).gripper, 0.01)
     check_close_time("tool_retrieval", get_scene("tool_retrieval").gripper, low)  # the ends are in
     check_close_time("tool_retrieval", get_scene("tool_retrieval").gripper, high)
 
