@@ -2,9 +2,10 @@
 point 1, measured before any change to the contact model).
 
     sleeve_on_peg  the sleeve slid 12 mm over the peg (aligned, 25 N threshold), then tilted
-                   about the tool's x by up to 2 deg at up to TILT_TORQUE_NM: the tilt it reaches
-                   (port z against the peg's axis) beside the rigid fit's 2 c / L (c the radial
-                   clearance, L the engagement), and the deepest overlap of sleeve and peg
+                   about the tool's x one way, the other and back, each until it presses back
+                   with TILT_TORQUE_NM: half the range between the stops beside the rigid fit's
+                   2 c / L (c the radial clearance, L the engagement), and the deepest overlap of
+                   sleeve and peg
     socket_wrench  its state machine, then the issue's turn: PTWL 0.2 rad about the tool axis at
                    up to 8 N m: how far the port turned and at what torque, and the deepest
                    overlap of shank and socket
@@ -18,7 +19,6 @@ import json
 import math
 
 import mujoco
-import numpy as np
 
 from robot_sim.behaviors import BehaviorReport
 from robot_sim.behaviors.ptwl import Ptwl
@@ -92,12 +92,6 @@ def sleeve() -> dict[str, object]:
         "overlap_tilted_mm": round(1000 * max(overlaps), 4),
         "radial_clearance_mm": round(1000 * RADIAL_CLEARANCE_M, 4),
     }
-
-
-def port_tilt_deg(sim: Simulation) -> float:
-    """[deg] the port's z from straight down (the peg's axis, pointing up)."""
-    z_port = sim.data.site_xmat[sim.layout.port_site].reshape(3, 3)[:, 2]
-    return math.degrees(math.acos(float(np.clip(-z_port[2], -1.0, 1.0))))
 
 
 def port_tilt_signed_deg(sim: Simulation) -> float:

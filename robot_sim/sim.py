@@ -29,7 +29,7 @@ from robot_sim.model import PHYSICS_TIMESTEP_S, build_model
 from robot_sim.payload import Payload
 from robot_sim.presets import default_presets
 from robot_sim.scenes import Scene, TaskProgress, apply_seed, get_scene
-from robot_sim.scenes.grasp import actuate, check_close_time, close_time, set_close_time
+from robot_sim.scenes.grasp import actuate, check_close_time, close_time, set_close_time, takes_close_time
 from robot_sim.task_frames import TaskFrame, TaskFrames, scene_frames, unit_quaternion
 from robot_sim.task_monitor import FrictionMonitor
 
@@ -133,7 +133,7 @@ class Simulation:
         check_close_time(spec.name, spec.gripper, gripper_close_s)  # before anything is lost
         model = build_model(spec.scene_file, spec.tool_file)
         apply_seed(spec, model, seed)
-        if gripper_close_s is not None and spec.gripper is not None:
+        if gripper_close_s is not None and spec.gripper is not None:  # checked above: it takes one
             set_close_time(model, spec.gripper, gripper_close_s)
         data = mujoco.MjData(model)
         layout = ArmLayout.from_model(model)
@@ -278,9 +278,10 @@ class Simulation:
         return preempted
 
     def gripper_close_time_s(self) -> float | None:
-        """The loaded gripper's closing time constant [s] (the scene's own unless set); None: no gripper."""
+        """The loaded gripper's closing time constant [s] (the scene's own unless set); None: no
+        gripper that closes on a part (none, or a grasp held from the start)."""
         gripper = self.scene.gripper
-        return None if gripper is None else close_time(self.model, gripper)
+        return close_time(self.model, gripper) if gripper is not None and takes_close_time(gripper) else None
 
     def _actuate_gripper(self, action: str) -> str:
         gripper = self.scene.gripper

@@ -25,7 +25,7 @@ from robot_sim.params import (
     GripperCloseTime,
 )
 from robot_sim.scenes import SCENES, get_scene
-from robot_sim.scenes.grasp import PNEUMATIC_CLOSE_S, check_close_time
+from robot_sim.scenes.grasp import PNEUMATIC_CLOSE_S, check_close_time, takes_close_time
 from robot_sim.task_frames import MAX_OPERATOR_FRAMES, unit_quaternion
 
 CommandState = Literal["queued", "running", "done"]
@@ -227,9 +227,7 @@ class HealthModel(BaseModel):
     long_polls: int = Field(description="GET /api/commands/{id}?wait= requests open now")
 
 
-_GRIPPER_SCENES: list[JsonValue] = [
-    name for name, scene in SCENES.items() if scene.gripper is not None and not scene.gripper.held_from_start
-]
+_GRIPPER_SCENES: list[JsonValue] = [name for name, scene in SCENES.items() if takes_close_time(scene.gripper)]
 
 
 class SceneRequest(BaseModel):
@@ -310,7 +308,8 @@ class BodyModel(BaseModel):
 class GeometryModel(BaseModel):
     scene: str = Field(description="loaded scene")
     gripper_close_s: float | None = Field(
-        None, description="[s] its gripper's closing time constant (POST /api/scene); null: no gripper"
+        None,
+        description="[s] its gripper's closing time constant (POST /api/scene); null: no gripper that closes",
     )
     bodies: dict[str, BodyModel] = Field(description="every body by name")
     geoms: list[GeomModel] = Field(description="every visible geom")

@@ -86,7 +86,7 @@ def test_the_bay_counts_only_whole_exchanges() -> None:
     assert isinstance(witness, ExchangeWitness)
     sim.run(0.1)
     verdict = sim.task()
-    assert witness.stowed(sim.data) and not verdict.success and verdict.progress == 0  # stowed, none done
+    assert witness.bay.stowed(sim.data) and not verdict.success and verdict.progress == 0  # stowed, none done
     machine = Machine(ToolExchange({"cycles": 1}))
     step = machine.start(sim.state().port)
     was_out = False

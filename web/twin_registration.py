@@ -26,7 +26,6 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from robot_sim.model import ARM_PREFIX, TOOL_PREFIX
 from robot_sim.sim import Simulation
 
 CONTACT_N = 3.0  # [N] a reported force at least this: the robot's tool is touching the fixture
@@ -69,8 +68,7 @@ class FixtureRegistration:
         self._shift = np.zeros(3)
         # (n, d0, a bound only): n.x = d0, or n.x <= d0 for a bound
         self._equations: deque[tuple[np.ndarray, float, bool]] = deque(maxlen=WINDOW)
-        fixture = _subtree(model, self.body)
-        tool = [b for b in range(model.nbody) if model.body(b).name.startswith(ARM_PREFIX + TOOL_PREFIX)]
+        fixture, tool = _subtree(model, self.body), _subtree(model, sim.layout.tool_body)
         self._pairs = [
             (f, t)
             for f in _colliding_geoms(model, fixture)

@@ -17,7 +17,6 @@ from robot_sim.errors import UnknownNameError
 from robot_sim.gains import Gains
 from robot_sim.geometry import body_poses, moving_bodies
 from robot_sim.params import PtwlParams
-from robot_sim.pose_math import rotvec_from_to
 from robot_sim.sim import Simulation
 from robot_sim.task_frames import TaskFrames
 from robot_sim.telemetry import gains_of
@@ -108,13 +107,11 @@ def remaining_ptwl(message: dict[str, Any], port: Pose, elapsed_s: float) -> Ptw
     params = PtwlParams.model_validate(message["params"])
     assert params.watchdog is not None
     left_s = max(params.duration - elapsed_s, 1e-3)
-    p_goal, q_goal = np.asarray(goal["position"]), np.asarray(goal["quaternion"])
-    translation = p_goal - np.asarray(port.position)
-    rotation = rotvec_from_to(np.asarray(port.quaternion), q_goal)
+    translation, rotation = port.displacement_to(_pose(goal))
     return params.model_copy(
         update={
-            "translation": translation.tolist(),
-            "rotation": rotation.tolist(),
+            "translation": translation,
+            "rotation": rotation,
             "frame": "base",
             "duration": left_s,
             "watchdog": max(params.watchdog - elapsed_s, left_s),

@@ -16,6 +16,7 @@ import numpy as np
 
 from robot_sim.controller import AdmittanceController
 from robot_sim.params import MonitorSpec, OnBreach
+from robot_sim.pose_math import rotvec_from_to
 from robot_sim.task_frames import TaskFrames
 
 
@@ -55,6 +56,12 @@ class Pose:
 
     def arrays(self) -> PoseArrays:
         return np.array(self.position, dtype=float), np.array(self.quaternion, dtype=float)
+
+    def displacement_to(self, goal: "Pose") -> tuple[list[float], list[float]]:
+        """(translation [m], rotation vector [rad]), base axes, taking this pose to `goal`: a
+        PTWL's move in `frame: base` from here."""
+        (p, q), (p_goal, q_goal) = self.arrays(), goal.arrays()
+        return (p_goal - p).tolist(), rotvec_from_to(q, q_goal).tolist()
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,6 @@ The carry moves are aimed at poses remembered from the first start, in base axes
 accumulates from cycle to cycle: not the lock's turns, not what each contact left of the port.
 """
 
-import numpy as np
 from pydantic import Field
 
 from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
@@ -24,7 +23,6 @@ from robot_sim.params import PtwlParams
 from robot_sim.policies.base import Decision, Finish, Policy, PolicySettings, Step
 from robot_sim.policies.tool_retrieval import ToolRetrieval
 from robot_sim.policies.tool_stowage import ToolStowage
-from robot_sim.pose_math import rotvec_from_to
 from robot_sim.scenes.tool_exchange import EXCHANGES_WANTED
 
 PARK_OFFSET_M = (0.0, 0.12, 0.06)  # [m] base axes, from the start: aside and up, clear of the bay
@@ -51,7 +49,6 @@ class ToolExchange(Policy):
     def __init__(self, overrides: dict[str, object] | None = None) -> None:
         super().__init__(overrides)
         self.home: Pose | None = None
-        self.cycle = 1
         self.exchanges = 0  # whole cycles the machine believes done
         self.phase: ToolRetrieval | ToolStowage | None = None  # the machine running, if one is
         self.move = ""  # the carry move running, when no machine is
@@ -93,7 +90,6 @@ class ToolExchange(Policy):
         self.exchanges += 1
         if self.exchanges == self.settings.cycles:
             return Finish(True, f"{self.exchanges} exchanges: each tool retrieved, parked and stowed")
-        self.cycle += 1
         return self._carry("return", report.final_port, self._home(), "stowed: back over the knob")
 
     def _run(self, machine: ToolRetrieval | ToolStowage, port: Pose) -> Step:
@@ -108,8 +104,7 @@ class ToolExchange(Policy):
         """A free move from `port` to `goal` in base axes (the port's pose at its end is where
         the last behavior left it: onboard, the next starts at once)."""
         self.move = move
-        translation = [g - p for g, p in zip(goal.position, port.position, strict=True)]
-        rotation = rotvec_from_to(np.asarray(port.quaternion), np.asarray(goal.quaternion)).tolist()
+        translation, rotation = port.displacement_to(goal)
         params = PtwlParams(
             translation=translation,
             rotation=rotation,
@@ -119,6 +114,11 @@ class ToolExchange(Policy):
             preset="medium",
         )
         return Step(params, f"cycle {self.cycle}/{self.settings.cycles}, {move}: {why}")
+
+    @property
+    def cycle(self) -> int:
+        """The cycle under way: the one after those done."""
+        return self.exchanges + 1
 
     def _over(self) -> Pose:
         return self._offset((0.0, 0.0, OVER_M))

@@ -46,6 +46,11 @@ class GripperCloseError(RobotSimError, ValueError):
     """A closing time constant the scene cannot take (a ValueError: request models report it)."""
 
 
+def takes_close_time(gripper: "GripperSpec | None") -> bool:
+    """A gripper whose jaws close on a part: its closing time constant is the scene's to set."""
+    return gripper is not None and not gripper.held_from_start
+
+
 def check_close_time(scene: str, gripper: "GripperSpec | None", close_s: float | None) -> None:
     """The one check of a scene's `gripper_close_s`: a number in range, on a scene whose gripper
     closes on a part (the tool bay's)."""
@@ -56,7 +61,7 @@ def check_close_time(scene: str, gripper: "GripperSpec | None", close_s: float |
         raise GripperCloseError(f"gripper_close_s must be in [{low}, {high}] s, got {close_s}")
     if gripper is None:
         raise GripperCloseError(f"gripper_close_s: the {scene} scene's tool has no gripper")
-    if gripper.held_from_start:
+    if not takes_close_time(gripper):
         raise GripperCloseError(
             f"gripper_close_s: the {scene} scene's gripper holds its part from the start, never closing on it"
         )

@@ -19,6 +19,7 @@ LOCK_DAMPING_NMS_PER_RAD = 0.02
 IN_LOCK_M = 0.016  # the legs are in the lock (at or under the tabs' top) below this lift
 LOCKED_RAD = 0.15  # turned less than this, bottomed legs are under the tabs
 BOTTOMED_M = 0.001
+OUT_M = 0.040  # the legs well clear of the bay's 40 mm walls' tabs: out
 GRIPPER = GripperSpec(weld="grasp", grasp_site="tool_grasp", round_about_axis=True)  # a round knob
 
 
@@ -30,11 +31,27 @@ class Bay:
     foot: int  # site: the tool's foot
     bay: int  # body
     tool: int  # body
+    grasp: int  # equality: the gripper's weld on the tool
 
     @classmethod
     def of(cls, model: mujoco.MjModel) -> "Bay":
         site, body = model.site, model.body
-        return cls(site("bay_floor").id, site("tool_base").id, body("bay").id, body("stow_tool").id)
+        grasp = model.equality(GRIPPER.weld).id
+        return cls(site("bay_floor").id, site("tool_base").id, body("bay").id, body("stow_tool").id, grasp)
+
+    def held(self, data: mujoco.MjData) -> bool:
+        """The tool is in the gripper."""
+        return bool(data.eq_active[self.grasp])
+
+    def out(self, data: mujoco.MjData) -> bool:
+        """Retrieved: the tool out of the bay (foot >= OUT_M up) in the gripper."""
+        return self.lift_m(data) >= OUT_M and self.held(data)
+
+    def stowed(self, data: mujoco.MjData) -> bool:
+        """Stowed: the tool bottomed, locked (legs under the tabs) and let go."""
+        return (
+            self.lift_m(data) <= BOTTOMED_M and abs(self.turn_rad(data)) <= LOCKED_RAD and not self.held(data)
+        )
 
     def lift_m(self, data: mujoco.MjData) -> float:
         """[m] the tool's foot above the bay's floor."""
@@ -64,7 +81,7 @@ def lock_spring(model: mujoco.MjModel) -> Callable[[mujoco.MjData], None]:
 
 
 def held(sim: "Simulation") -> bool:
-    return bool(sim.data.eq_active[sim.model.equality(GRIPPER.weld).id])
+    return Bay.of(sim.model).held(sim.data)
 
 
 BAY_JITTER_M = 0.002  # a seed moves the bay up to this in x and y

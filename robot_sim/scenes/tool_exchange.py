@@ -15,8 +15,7 @@ from typing import TYPE_CHECKING
 import mujoco
 
 from robot_sim.scenes.base import TaskProgress
-from robot_sim.scenes.tool_bay import BOTTOMED_M, GRIPPER, LOCKED_RAD, Bay, lock_spring
-from robot_sim.scenes.tool_retrieval import OUT_M
+from robot_sim.scenes.tool_bay import Bay, lock_spring
 from robot_sim.scenes.tool_retrieval import SCENE as RETRIEVAL
 
 if TYPE_CHECKING:
@@ -31,19 +30,10 @@ class ExchangeWitness:
 
     def __init__(self, model: mujoco.MjModel) -> None:
         self._spring = lock_spring(model)
-        self._bay = Bay.of(model)
-        self._weld = model.equality(GRIPPER.weld).id
+        self.bay = Bay.of(model)
         self._ticks = 0
         self.out = False  # the tool left the bay in the gripper, and is not stowed again yet
         self.exchanges = 0
-
-    def stowed(self, data: mujoco.MjData) -> bool:
-        bay = self._bay
-        return (
-            bay.lift_m(data) <= BOTTOMED_M
-            and abs(bay.turn_rad(data)) <= LOCKED_RAD
-            and not data.eq_active[self._weld]
-        )
 
     def __call__(self, data: mujoco.MjData) -> None:
         self._spring(data)
@@ -51,8 +41,8 @@ class ExchangeWitness:
         if self._ticks % LOOK_EVERY_TICKS:
             return
         if not self.out:
-            self.out = self._bay.lift_m(data) >= OUT_M and bool(data.eq_active[self._weld])
-        elif self.stowed(data):
+            self.out = self.bay.out(data)
+        elif self.bay.stowed(data):
             self.out = False
             self.exchanges += 1
 
@@ -63,7 +53,7 @@ def _exchanged(sim: "Simulation") -> TaskProgress:
     return TaskProgress(
         f"{EXCHANGES_WANTED} whole exchanges seen by the bay (out in the gripper, then stowed, locked, "
         "let go), the tool stowed now",
-        witness.exchanges >= EXCHANGES_WANTED and witness.stowed(sim.data),
+        witness.exchanges >= EXCHANGES_WANTED and witness.bay.stowed(sim.data),
         witness.exchanges,
         EXCHANGES_WANTED,
         "exchanges",

@@ -3,18 +3,20 @@
 from typing import TYPE_CHECKING
 
 from robot_sim.scenes.base import HOME_TOOL_DOWN, Scene, TaskProgress
-from robot_sim.scenes.tool_bay import GRIPPER, Bay, bay_moved, held, lock_spring
+from robot_sim.scenes.tool_bay import GRIPPER, OUT_M, Bay, bay_moved, lock_spring
 
 if TYPE_CHECKING:
     from robot_sim.sim import Simulation
 
-OUT_M = 0.040  # the legs well clear of the bay's 40 mm walls' tabs: out
-
 
 def _retrieved(sim: "Simulation") -> TaskProgress:
-    lift = Bay.of(sim.model).lift_m(sim.data)
+    bay = Bay.of(sim.model)
     return TaskProgress(
-        "tool out of the bay (foot >= 40 mm up) in the gripper", lift >= OUT_M and held(sim), lift, OUT_M, "m"
+        "tool out of the bay (foot >= 40 mm up) in the gripper",
+        bay.out(sim.data),
+        bay.lift_m(sim.data),
+        OUT_M,
+        "m",
     )
 
 

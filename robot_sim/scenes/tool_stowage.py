@@ -10,10 +10,8 @@ from robot_sim.scenes.grasp import hold, jaws_relpose
 from robot_sim.scenes.tool_bay import (
     BOTTOMED_M,
     GRIPPER,
-    LOCKED_RAD,
     Bay,
     bay_moved,
-    held,
     lock_spring,
     tool_qpos,
 )
@@ -33,14 +31,11 @@ def _in_the_gripper(model: mujoco.MjModel) -> None:
 
 
 def _stowed(sim: "Simulation") -> TaskProgress:
-    m, d = sim.model, sim.data
-    bay = Bay.of(m)
-    lift, turn = bay.lift_m(d), bay.turn_rad(d)
-    stowed = lift <= BOTTOMED_M and abs(turn) <= LOCKED_RAD and not held(sim)
+    bay = Bay.of(sim.model)
     return TaskProgress(
         "tool bottomed in the bay, locked (legs under the tabs), gripper released",
-        stowed,
-        lift,
+        bay.stowed(sim.data),
+        bay.lift_m(sim.data),
         BOTTOMED_M,
         "m",
         at_most=True,
