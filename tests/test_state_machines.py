@@ -109,6 +109,21 @@ def test_machine_fails_a_policy_that_never_finishes() -> None:
     assert "still going" in machine.report().detail
 
 
+class LongForever(Forever):
+    """A machine that says it needs more steps (a tool exchange: 15 a cycle)."""
+
+    def max_steps(self) -> int:
+        return 75
+
+
+def test_the_step_bound_is_the_machines_own() -> None:
+    machine = Machine(LongForever())
+    step = machine.start(HOME)
+    while step is not None:
+        step = machine.advance(report(ExitCondition.COMPLETED, 0.0, "rwe"))
+    assert len(machine.steps) == 75 and machine.report().detail == "still going after 75 behaviors"
+
+
 def test_machine_report_sums_up_its_steps() -> None:
     machine = Machine(SleeveOnPeg())
     machine.start(HOME)

@@ -4,13 +4,14 @@ closing impact, the bay's spring-loaded bayonet lock, and both state machines.""
 import math
 
 import httpx
+import mujoco
 import pytest
 
 from robot_sim.behaviors import ExitCondition, Gripper, Ptwl, Rwe
 from robot_sim.params import GripperParams, RweParams
 from robot_sim.policies import run_onboard
 from robot_sim.policies import tool_bay as moves
-from robot_sim.scenes.tool_bay import Bay, held
+from robot_sim.scenes.tool_bay import Bay, held, tool_qpos
 from robot_sim.sim import Simulation
 from server.client import RobotClient
 from tests.helpers import ten_seeds
@@ -131,3 +132,18 @@ def test_a_gripper_command_needs_a_tool_with_a_gripper(robot: RobotClient) -> No
         assert done.exit == "completed" and "closed on nothing" in done.detail
     finally:
         robot.reset_scene("free_space")
+
+
+def test_the_bay_calls_a_tool_out_only_in_the_gripper_and_stowed_only_let_go() -> None:
+    """The retrieval's predicate and the exchange's witness read these: a tool lifted out of
+    the bay by anything but the gripper is not retrieved; a locked tool still held is not stowed."""
+    sim = Simulation("tool_retrieval")
+    bay = Bay.of(sim.model)
+    assert bay.stowed(sim.data) and not bay.out(sim.data) and not bay.held(sim.data)
+    sim.data.eq_active[bay.grasp] = 1  # the jaws on the tool, where it lies locked
+    assert not bay.stowed(sim.data) and not bay.out(sim.data)
+    sim.data.qpos[tool_qpos(sim.model) + 2] += 0.05  # 50 mm up, out of the bay
+    mujoco.mj_forward(sim.model, sim.data)
+    assert bay.lift_m(sim.data) > 0.04 and bay.out(sim.data)
+    sim.data.eq_active[bay.grasp] = 0  # the same place, not in the gripper
+    assert not bay.out(sim.data) and not sim.task().success

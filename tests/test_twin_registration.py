@@ -13,6 +13,7 @@ from robot_sim.behaviors.ptwl import Ptwl
 from robot_sim.behaviors.rwe import Rwe
 from robot_sim.params import PtwlParams, RweParams
 from robot_sim.sim import Simulation
+from robot_sim.telemetry import state_fields
 from web.twin import GroundTwin
 from web.twin_inbox import TwinInbox
 from web.twin_registration import MAX_SHIFT_M, WINDOW, FixtureRegistration
@@ -151,3 +152,31 @@ def test_the_fit_rests_on_the_last_20_restarts_only() -> None:
     registration._solve()
     assert registration.registered().samples == WINDOW == 20
     assert registration.registered().shift_m[2] == pytest.approx(-0.001, abs=1e-12)
+
+
+def pressed_robot(shift_m: tuple[float, float, float]) -> Simulation:
+    """A robot whose plate is `shift_m` off the model, its probe pressed onto it at ~10 N."""
+    robot = robot_with_model_error("surface", None, shift_m)
+    robot.run_behavior(Ptwl(PtwlParams(translation=[0.0, 0.0, 0.06], duration=2.0, force_threshold=10.0)))
+    return robot
+
+
+def heard(twin: GroundTwin, robot: Simulation, wall: float) -> None:
+    """The console hears the robot's state at `wall` (no link delay) and the twin's thread runs
+    (the calls below are seconds apart: each restarts the twin from the state)."""
+    twin.on_state({**state_fields(robot, []), "sent_at": wall, "taken_at": wall}, wall)
+    twin.advance(wall)
+
+
+def test_the_console_shows_a_moved_fixture_and_forgets_it_when_the_scene_reloads() -> None:
+    right = GroundTwin(uplink_s=lambda: 0.0)
+    heard(right, pressed_robot((0.0, 0.0, 0.0)), 1_800_000_000.0)
+    assert right.registered is None  # the model was right: its own contact's overlap is not shown
+    twin = GroundTwin(uplink_s=lambda: 0.0)
+    robot = pressed_robot((0.0, 0.0, -0.001))
+    heard(twin, robot, 1_800_000_010.0)
+    assert twin.registered is not None and twin.registered.moved_mm == pytest.approx(1.0, abs=0.2)
+    robot.reset("surface")  # the robot reloads the same scene (its sim time starts again)
+    robot.run(0.1)
+    heard(twin, robot, 1_800_000_020.0)
+    assert twin.registered is None  # the old layout's fit is gone with it
