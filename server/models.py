@@ -25,7 +25,7 @@ from robot_sim.params import (
     GripperCloseTime,
 )
 from robot_sim.scenes import SCENES, get_scene
-from robot_sim.scenes.grasp import PNEUMATIC_CLOSE_S, check_close_time, takes_close_time
+from robot_sim.scenes.grasp import PNEUMATIC_CLOSE_S, GripperCloseError, check_close_time, takes_close_time
 from robot_sim.task_frames import MAX_OPERATOR_FRAMES, unit_quaternion
 
 CommandState = Literal["queued", "running", "done"]
@@ -264,7 +264,10 @@ class SceneRequest(BaseModel):
     @classmethod
     def _has_a_gripper(cls, close_s: float | None, info: ValidationInfo) -> float | None:
         if "name" in info.data:  # a bad name is reported on its own
-            check_close_time(info.data["name"], get_scene(info.data["name"]).gripper, close_s)
+            try:
+                check_close_time(info.data["name"], get_scene(info.data["name"]).gripper, close_s)
+            except GripperCloseError as err:  # the 422 names the field itself: not twice
+                raise ValueError(str(err).removeprefix("gripper_close_s: ")) from None
         return close_s
 
 

@@ -247,9 +247,12 @@ def test_unknown_scene_lists_the_valid_ones(
         ({"name": "surface", "sede": 7}, ["sede", "Extra inputs"]),
         (
             {"name": "surface", "gripper_close_s": 0.01},
-            ["gripper_close_s", "surface scene's tool has no gripper"],
+            ["gripper_close_s: the surface scene's tool has no gripper"],
         ),
-        ({"name": "door", "gripper_close_s": 0.01}, ["gripper_close_s", "holds its part from the start"]),
+        (
+            {"name": "door", "gripper_close_s": 0.01},
+            ["gripper_close_s: the door scene's gripper holds its part from the start"],
+        ),
         (
             {"name": "tool_retrieval", "gripper_close_s": 0.001},
             ["gripper_close_s", "must be in [0.002, 0.05] s, got 0.001"],
