@@ -130,12 +130,17 @@ def jam_recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def seek(page, position_s: float, sim_time_at) -> float:  # type: ignore[no-untyped-def]
     """Type a time into the slider's box (a browser's own move: a seek); wait until the plots end
-    at the state there. The time typed (to the slider's 0.01 s)."""
+    at the state there, filled from the recording. The time typed (to the slider's 0.01 s).
+
+    The plots' jump count must grow too: between the seek and the fill, the stream's one state
+    at the new time can already stand alone on the plots (t1 right, the window not yet filled)."""
     typed = round(position_s, 2)
+    jumps = int(plot(page, "jumps") or 0)
     inputs_for(page, "Time [s]").last.fill(f"{typed:.2f}")
     until(
         page,
-        f"Math.abs(Number(document.querySelector('#ptwl-plot')?.dataset.t1) - {sim_time_at(typed)}) < 0.001",
+        f"Math.abs(Number(document.querySelector('#ptwl-plot')?.dataset.t1) - {sim_time_at(typed)}) < 0.001"
+        f" && Number(document.querySelector('#ptwl-plot')?.dataset.jumps) > {jumps}",
         timeout=10_000,
     )
     return typed
