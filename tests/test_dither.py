@@ -130,7 +130,9 @@ def test_every_preset_in_a_jam(preset: str) -> None:
         assert report.exit is ExitCondition.GOAL_REACHED  # backs out of the jam
         assert moved < -(params.travel - 0.0015)
     elif params.mode == "torsional":
-        assert moved > 0.003  # the twist walks the sleeve in
+        # The twist walks the sleeve in, 1.5 mm over its 11 s in a fit as stiff as the rigid one
+        # (3 mm in the softer contact before): why the sleeve's machine backs out and re-aims.
+        assert moved > 0.001
     else:
         assert report.exit is ExitCondition.TIMEOUT and abs(moved) < 0.003  # circles do not free it
 

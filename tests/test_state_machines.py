@@ -1,7 +1,9 @@
 """Onboard state machines (paper 2.3): policies that choose the next behavior from the last
 one's report, run headless, from the command line and on the robot as one command."""
 
+import dataclasses
 import json
+import math
 import os
 import subprocess
 import sys
@@ -21,6 +23,7 @@ from robot_sim.policies import run as run_module
 from robot_sim.policies import sleeve_on_peg as sleeve
 from robot_sim.policies.base import MAX_STEPS
 from robot_sim.policies.sleeve_on_peg import SleeveOnPeg
+from robot_sim.pose_math import rotation_matrix
 from robot_sim.sim import Simulation
 from server.client import RobotClient
 from tests.helpers import DOWN_WXYZ, report_down
@@ -43,27 +46,63 @@ def test_sleeve_policy_completes_when_the_insertion_ends_without_a_breach() -> N
     assert isinstance(decision, Finish) and decision.completed and "58.0 mm" in decision.why
 
 
-def test_sleeve_policy_recovers_a_jam_with_rwe_dither_ptwl_and_gives_up_after_four() -> None:
+def jam(depth_m: float, torque_tool_xy: tuple[float, float]) -> BehaviorReport:
+    """An insertion's breach `depth_m` down, the torque on the port about its tool x, y [N m]."""
+    breach = report(ExitCondition.WRENCH_BREACH, depth_m, peak=27.0)
+    R_world_port = rotation_matrix(np.asarray(HOME.quaternion))
+    torque_world = R_world_port @ np.array([*torque_tool_xy, 0.0])
+    return dataclasses.replace(breach, final_wrench=(0.0, 0.0, 25.0, *torque_world.tolist()))
+
+
+def test_sleeve_policy_retracts_and_turns_the_approach_the_way_the_jams_torque_pushed() -> None:
+    """Relieve, retract (a dither that ends on its progress), turn, insert again: each turn the
+    way the jam's torque pushed, by the tilt that wedges the rigid fit at the jam's depth
+    (2c / engagement), at most half the last one when it pushes back; then gives up."""
     policy = SleeveOnPeg()
     policy.first(HOME)
-    for jam in range(1, policy.settings.max_recoveries + 1):
-        relieve = policy.next(report(ExitCondition.WRENCH_BREACH, 0.026, peak=27.0))
+    R_world_port = rotation_matrix(np.asarray(HOME.quaternion))
+    engaged_m = 0.0025  # of the peg's cylinder: wedges a 2.04 deg tilt
+    depth_m = sleeve.MOUTH_M + sleeve.CHAMFER_M + engaged_m
+    expected_tool_xy = [
+        np.array([math.radians(2.04), 0.0]),  # the torque about tool +x: the full tilt
+        np.array([0.0, math.radians(2.04)]),  # about +y: across the last, the full tilt
+        np.array([0.0, -math.radians(1.02)]),  # about -y: back, half the last
+    ]
+    torques = [(0.2, 0.0), (0.0, 0.1), (0.0, -0.3)]
+    for n in range(1, policy.settings.max_recoveries + 1):
+        torque = torques[min(n, 3) - 1]
+        relieve = policy.next(jam(depth_m, torque))
         assert isinstance(relieve, Step) and isinstance(relieve.params, RweParams)
-        assert (
-            relieve.why.startswith("jam:")
-            and f"({jam})" in relieve.why
-            and "27.0 N" in relieve.why
-            and "26.0 mm" in relieve.why
-        )
-        twist = policy.next(report(ExitCondition.COMPLETED, 0.026, "rwe"))
-        assert isinstance(twist, Step) and isinstance(twist.params, DitherParams)
-        assert twist.params.mode == "torsional" and twist.params.direction == "push"
-        again = policy.next(report(ExitCondition.WRENCH_BREACH, 0.030, "dither"))  # a dither's breach: go on
-        assert isinstance(again, Step) and isinstance(again.params, RweParams)  # its push relieved first
-        insert = policy.next(report(ExitCondition.COMPLETED, 0.030, "rwe"))
+        assert relieve.why.startswith("jam:") and f"({n})" in relieve.why and "27.0 N" in relieve.why
+        assert f"{1000 * depth_m:.1f} mm" in relieve.why
+        retract = policy.next(report(ExitCondition.COMPLETED, depth_m, "rwe"))
+        assert isinstance(retract, Step) and isinstance(retract.params, DitherParams)
+        assert retract.params.direction == "pull" and retract.params.progress == pytest.approx(0.004)
+        turn = policy.next(report(ExitCondition.GOAL_REACHED, depth_m - 0.004, "dither"))
+        assert isinstance(turn, Step) and isinstance(turn.params, PtwlParams)
+        assert turn.params.frame == "base" and turn.params.orientation_tolerance <= 1e-3
+        if n <= 3:
+            so_far = sum(expected_tool_xy[:n], np.zeros(2))
+            turned = R_world_port.T @ np.asarray(turn.params.rotation)  # from HOME's attitude
+            assert turned[0:2] == pytest.approx(so_far, abs=math.radians(0.02)), np.degrees(turned)
+            assert abs(turned[2]) < 1e-9
+        insert = policy.next(report(ExitCondition.GOAL_REACHED, depth_m - 0.004, "ptwl"))
         assert isinstance(insert, Step) and insert.params == sleeve.INSERT
-    gave_up = policy.next(report(ExitCondition.WRENCH_BREACH, 0.027))
-    assert isinstance(gave_up, Finish) and not gave_up.completed and "4 recoveries" in gave_up.why
+    assert policy.settings.max_recoveries == 8
+    gave_up = policy.next(jam(depth_m, (0.1, 0.0)))
+    assert isinstance(gave_up, Finish) and not gave_up.completed and "8 recoveries" in gave_up.why
+
+
+def test_sleeve_policy_turns_one_degree_for_a_jam_on_the_chamfer() -> None:
+    """A jam before the cylinder (on the chamfer) says which way, not how far: 1 deg."""
+    policy = SleeveOnPeg()
+    policy.first(HOME)
+    policy.next(jam(sleeve.MOUTH_M + 0.001, (0.0, 0.3)))
+    policy.next(report(ExitCondition.COMPLETED, 0.02, "rwe"))
+    turn = policy.next(report(ExitCondition.GOAL_REACHED, 0.017, "dither"))
+    assert isinstance(turn, Step) and isinstance(turn.params, PtwlParams)
+    turned = rotation_matrix(np.asarray(HOME.quaternion)).T @ np.asarray(turn.params.rotation)
+    assert turned == pytest.approx([0.0, math.radians(1.0), 0.0], abs=1e-6)
 
 
 def test_sleeve_policy_counts_a_breach_deep_enough_as_inserted() -> None:

@@ -47,13 +47,19 @@ class InsertionPolicy(Policy):
         assert self.home is not None, "next() before first()"
         return travel_down_tool_axis_m(self.home, port)
 
-    def recover(self, why: str, travel_m: float) -> Decision:
-        """Another recovery round (relieve, twist, relieve, insert), or give up after the last."""
+    def out_of_rounds(self, travel_m: float) -> Finish | None:
+        """Failed, once `max_recoveries` rounds have not got it in; else None (counted: one more)."""
         if self.recoveries == self.settings.max_recoveries:
             return Finish(
                 False, f"still short {1000 * travel_m:.1f} mm down after {self.recoveries} recoveries"
             )
         self.recoveries += 1
+        return None
+
+    def recover(self, why: str, travel_m: float) -> Decision:
+        """Another recovery round (relieve, twist, relieve, insert), or give up after the last."""
+        if (gave_up := self.out_of_rounds(travel_m)) is not None:
+            return gave_up
         why = f"{why} ({self.recoveries})"
         self.pending = [
             Step(TWIST, f"{why}; twist-dither to free it"),
