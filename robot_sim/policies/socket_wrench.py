@@ -8,7 +8,8 @@ same way every time ... By tilting the shank, the ball detent can be depressed."
               -> stopped at the socket's mouth (the ball on its edge: a straight push would
                  need ~25 N): tilt
     tilt      PTWL 6 mm down while turning 0.07 rad about the tool's y axis, the shank's top
-              toward the detent's side (tool +x): the socket's edge presses the ball in
+              toward the detent's side (tool +x), at up to 30 N: the socket's edge presses the
+              ball in
     insert    PTWL 20 mm down while turning back upright, at up to 20 N
               -> short: relieve the wrench and tilt again (`max_recoveries` rounds)
     relieve   RWE; completed
@@ -53,7 +54,9 @@ class SocketWrench(StagedPolicy):
             rotation=tilt,
             duration=2.0,
             watchdog=2.5,
-            force_threshold=25.0,
+            # Pressing the ball in peaks at 23-27 N in a socket as stiff as the rigid one (7 of
+            # 100 seeds breached a 25 N limit): 30 N lets the press finish, its watchdog ends it.
+            force_threshold=30.0,
             preset="medium",
         )
         self.insert = PtwlParams(
