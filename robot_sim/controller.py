@@ -329,9 +329,13 @@ class AdmittanceController:
 
     def twist_des(self) -> np.ndarray:
         """(6,) eq. 5's desired twist [m/s, rad/s], base axes, from the last signals."""
+        return self.twist_for(self.control_wrench())
+
+    def twist_for(self, w_world: np.ndarray) -> np.ndarray:
+        """(6,) eq. 5's twist [m/s, rad/s] with `w_world` (6,) as the wrench, from the last
+        stretch: how fast a robot with this attractor would move under that measured wrench."""
         s = self.stretch_world()
-        w = self.control_wrench()
-        return self._diag_world(self._inv_damping) @ (w + self.stiffness_world() @ s)
+        return self._diag_world(self._inv_damping) @ (w_world + self.stiffness_world() @ s)
 
     # ---------------------------------------------------------------------------- ticks
     def command(self) -> None:

@@ -16,7 +16,7 @@ from robot_sim.sim import Simulation
 from robot_sim.telemetry import state_fields
 from web.twin import GroundTwin
 from web.twin_inbox import TwinInbox
-from web.twin_registration import MAX_SHIFT_M, WINDOW, FixtureRegistration
+from web.twin_registration import INSIDE_M, MAX_SHIFT_M, WINDOW, FixtureRegistration
 from web.twin_sim import TwinSim
 from web.twin_trust import twin_readout
 
@@ -83,7 +83,8 @@ def test_a_twin_inside_its_fixture_while_the_robot_is_free_moves_it_out_and_neve
     inside = registration._closest(twin)
     assert inside is not None and inside[0] < 0.0  # the contact's own overlap
     registration.observe(twin, force_n=0.0)  # the robot free there: the plate is lower
-    assert registration.registered().shift_m[2] == pytest.approx(inside[0], abs=1e-5)
+    assert registration.registered().shift_m[2] == pytest.approx(inside[0], abs=2e-5)
+    assert tip_to_plate_m(twin) >= -INSIDE_M  # and the twin is out of its own plate
     registration._equations.extend([(np.array([0.0, 0.0, 1.0]), 0.05, False)] * 5)  # 50 mm: no small error
     registration._solve()
     assert float(np.linalg.norm(registration.registered().shift_m)) == pytest.approx(MAX_SHIFT_M)
@@ -180,3 +181,87 @@ def test_the_console_shows_a_moved_fixture_and_forgets_it_when_the_scene_reloads
     robot.run(0.1)
     heard(twin, robot, 1_800_000_020.0)
     assert twin.registered is None  # the old layout's fit is gone with it
+
+
+def test_a_restart_never_leaves_the_twin_inside_its_fixture_when_old_evidence_disagrees() -> None:
+    """The window's older equations, from other places around a 16-sided sleeve, outvoted the
+    newest: a twin restarted with its sleeve 0.9 mm into its peg and was thrown 15 mm. Each
+    restart now adds the deepest pair while the fit leaves the twin inside."""
+    twin = Simulation("sleeve_on_peg")
+    twin.run_behavior(Ptwl(PtwlParams(translation=[0.0, 0.0, 0.032], duration=2.0, force_threshold=40.0)))
+    registration = FixtureRegistration(twin)
+    peg = twin.model.body("peg_base").id
+    x = np.array([1.0, 0.0, 0.0])
+    registration._equations.extend([(x, 0.0, False)] * (WINDOW - 1))  # "the peg is where the model says"
+    twin.model.body_pos[peg][0] += 0.0006  # and now the model's peg 0.6 mm into the sleeve's wall
+    mujoco.mj_forward(twin.model, twin.data)
+    registration._nominal = twin.model.body_pos[peg].copy()
+    inside = registration._closest(twin)
+    assert inside is not None and inside[0] < -0.0004
+    registration.observe(twin, force_n=5.0)
+    after = registration._closest(twin)
+    assert after is not None and after[0] >= -INSIDE_M, after
+    assert registration.registered().samples > WINDOW - 1 + 1 or registration.registered().samples == WINDOW
+
+
+def held_at_a_jam(
+    seed: int | None, peg_shift_m: float, travel_m: float, limit_n: float = 40.0
+) -> tuple[Simulation, dict[str, object]]:
+    """A robot whose sleeve is held at `limit_n` (an insertion `travel_m` down the tool axis that
+    breached, the attractor left to hold the limit), and the state it sends, its peg at `seed`'s
+    place and then `peg_shift_m` along x, where the twin's model has it at the nominal place."""
+    robot = robot_with_model_error("sleeve_on_peg", seed, (peg_shift_m, 0.0, 0.0))
+    insertion = PtwlParams(
+        translation=[0.0, 0.0, travel_m], frame="tool", duration=3.0, force_threshold=limit_n
+    )
+    assert robot.run_behavior(Ptwl(insertion)).exit.value == "wrench_breach"
+    robot.run(0.5)  # still, holding
+    return robot, {**state_fields(robot, []), "sent_at": 0.0, "taken_at": 0.0}
+
+
+@pytest.mark.parametrize("register", [False, True])
+def test_a_twin_that_cannot_bear_the_robots_press_holds_where_the_robot_is_held(register: bool) -> None:
+    """Idle and held still at its 40 N limit on a peg 1 mm beside the twin's, the robot stays;
+    main's twin ran to the attractor set against that force (nothing in its model bore it) and
+    slid 20-26 mm on. It now holds, pressing on nothing; a twin whose model bears the press
+    keeps it (the attractor where the robot's is)."""
+    robot, state = held_at_a_jam(5, 0.001, 0.05)  # jammed at the mouth
+    twin = TwinSim(register)
+    twin.load("sleeve_on_peg")
+    twin.restart(state, None, [], 0.5, robot.frames)
+    assert twin.sim is not None
+    start = twin.sim.controller.p_world_port.copy()
+    stretch_mm = 1000 * float(np.linalg.norm(twin.sim.controller.stretch_world()[0:3]))
+    twin.run_to(twin.sim.time + 2.0, lambda t, p: None)
+    assert 1000 * float(np.linalg.norm(twin.sim.controller.p_world_port - start)) < 0.5
+    assert stretch_mm < 0.1  # it holds pressing on nothing
+    robot, state = held_at_a_jam(None, 0.0, 0.07, 15.0)  # the model right: bottomed, its peg bears it
+    twin = TwinSim(register)
+    twin.load("sleeve_on_peg")
+    twin.restart(state, None, [], 0.5, robot.frames)
+    assert twin.sim is not None
+    reported = np.asarray(state["attractor"]["position"])  # type: ignore[index]
+    assert float(np.linalg.norm(twin.sim.controller.p_world_attractor - reported)) < 1e-9
+
+
+PEG_INSERTION = [
+    (1.0, PtwlParams(translation=[0, 0, 0.05], frame="tool", duration=3.0, force_threshold=40.0))
+]
+
+
+@pytest.mark.parametrize(
+    ("peg_shift_m", "register"),
+    [((0.001, 0.0, 0.0), False), ((0.001, 0.0, 0.0), True), ((0.0005, 0.0, -0.002), True)],
+)
+def test_after_the_first_contact_the_twin_is_within_3_mm_with_the_peg_elsewhere(
+    peg_shift_m: tuple[float, float, float], register: bool
+) -> None:
+    """Issue 29 point 6 on the tight fit, at 1 s RTT. The peg 1 mm aside: the robot's sleeve jams
+    at the mouth and the twin's slid on, 26 mm off (now 0.02 mm: it holds where the robot is
+    held, registering or not). The peg 2 mm low and 0.5 mm aside: the robot slides on and the
+    twin restarted up to 0.9 mm inside its peg and was thrown, 15 mm off (now 0.6 mm)."""
+    robot = robot_with_model_error("sleeve_on_peg", 5, peg_shift_m)
+    result = run_trial(robot, 1.0, PEG_INSERTION, 8.0, register=register)
+    after = result.after_contact_max_mm
+    assert after is not None and after <= 3.0, after
+    assert after < result.delayed_max_mm / 4
