@@ -6,9 +6,9 @@
     ptwl scenes | ptwl presets                            what exists
     ptwl task list | run TASK | bench TASK                the tasks' onboard state machines
 
-`ptwl sim --demo` drives the paper's sleeve-on-peg sequence (a 3 degree tilt, then the
-documented strategy: PTWL jams, RWE, torsional dither, PTWL, until inserted) and prints one
-status line a second.
+`ptwl sim --demo` drives the paper's sleeve-on-peg sequence (a 3 degree tilt, then the task's
+state machine: PTWL jams, RWE, a dither backs out, a PTWL turns the approach, PTWL again, until
+inserted) and prints one status line a second.
 """
 
 import argparse
@@ -41,9 +41,13 @@ Strategy = Generator[Behavior, BehaviorReport, None]  # the next behavior, sent 
 
 
 def demo_sequence(sim: Simulation) -> Strategy:
-    """Paper 2.3.5 on `sleeve_on_peg`: a tilt jams plain PTWL; the state machine's twist dither
-    gets it in."""
-    yield Ptwl(PtwlParams(rotation=[DEMO_TILT_RAD, 0.0, 0.0], duration=1.0, preset="medium"))
+    """Paper 2.3.5 on `sleeve_on_peg`: a tilt jams plain PTWL; the state machine backs out and
+    re-aims ("retract and attempt to reinsert with a new alignment") until it is in."""
+    yield Ptwl(
+        PtwlParams(
+            rotation=[DEMO_TILT_RAD, 0.0, 0.0], duration=1.0, preset="medium", orientation_tolerance=1e-3
+        )
+    )
     machine = Machine(SleeveOnPeg())
     step: Step | None = machine.start(sim.state().port)
     while step is not None:
