@@ -1,5 +1,7 @@
 """What the insertion machines share (sleeve on peg, quick connect): one insertion PTWL whose
-force threshold is a setting, and the paper's recovery when it stops short, in one place:
+force threshold is a setting, the count of recovery rounds (`out_of_rounds`), and the paper's
+twist-dither recovery when it stops short (`recover`, the quick connect's; the sleeve, in a fit as
+stiff as the rigid one, backs out and re-aims instead: sleeve_on_peg.py):
 
     RWE (all axes)              relieve the jam's wrench
     Dither torsional_push       turn while advancing: breaks the wedging friction; ends once the
