@@ -93,11 +93,13 @@ def test_sleeve_policy_retracts_and_turns_the_approach_the_way_the_jams_torque_p
     assert isinstance(gave_up, Finish) and not gave_up.completed and "8 recoveries" in gave_up.why
 
 
-def test_sleeve_policy_turns_one_degree_for_a_jam_on_the_chamfer() -> None:
-    """A jam before the cylinder (on the chamfer) says which way, not how far: 1 deg."""
+@pytest.mark.parametrize("past_the_chamfer_m", [-0.0005, 0.0001])
+def test_sleeve_policy_turns_one_degree_for_a_jam_on_the_chamfer(past_the_chamfer_m: float) -> None:
+    """A jam on the chamfer, or at its edge (under 0.3 mm of cylinder in), says which way, not
+    how far (2c / 0.1 mm would be 51 deg): 1 deg."""
     policy = SleeveOnPeg()
     policy.first(HOME)
-    policy.next(jam(sleeve.MOUTH_M + 0.001, (0.0, 0.3)))
+    policy.next(jam(sleeve.MOUTH_M + sleeve.CHAMFER_M + past_the_chamfer_m, (0.0, 0.3)))
     policy.next(report(ExitCondition.COMPLETED, 0.02, "rwe"))
     turn = policy.next(report(ExitCondition.GOAL_REACHED, 0.017, "dither"))
     assert isinstance(turn, Step) and isinstance(turn.params, PtwlParams)
