@@ -52,8 +52,8 @@ MODEL_ERRORS: dict[
     "plate_3mm_low_tilted_2deg": ("surface", 3, (0.0, 0.0, -0.003), 2.0, contact_moves_and_back(), 15.0),
     "plate_2mm_high": ("surface", 3, (0.0, 0.0, 0.002), 0.0, contact_moves_and_back(), 15.0),
     "peg_2mm_low_half_mm_aside": ("sleeve_on_peg", 5, (0.0005, 0.0, -0.002), 0.0, INSERTION, 16.0),
-    # Not met: the robot's sleeve jams or stops on the peg's top where the twin's slides on; a
-    # contact on the top face does not show a sideways offset, and a tilt is not registered.
+    # The robot's sleeve jams where the twin's would slide on: the twin holds where the robot is
+    # held (web/twin_sim.py), registering or not; a tilt is not registered (translation only).
     "peg_1mm_aside": ("sleeve_on_peg", 5, (0.001, 0.0, 0.0), 0.0, INSERTION, 16.0),
     "peg_tilted_1deg": ("sleeve_on_peg", 5, (0.0, 0.0, 0.0), 1.0, INSERTION, 16.0),
 }
