@@ -203,6 +203,14 @@ def test_stop_shows_pending_until_the_robot_confirms(browser, stack, calm) -> No
     inputs_for(page, "Stiffness preset (PTWL)").first.click()  # and its dropdown open
     page.get_by_role("option", name="soft").wait_for()
     stop = page.get_by_role("button", name="STOP")
+    # On screen, once the bar has laid out: the floating bar grows upward as its text wraps, and
+    # for a frame in between its last row can stand half a pixel low (768.5 px, once in a run).
+    until(
+        page,
+        "(() => { const b = [...document.querySelectorAll('button')].find(e => e.innerText.trim() === 'STOP')"
+        "?.getBoundingClientRect(); return b && b.top >= 0 && b.bottom <= window.innerHeight; })()",
+        timeout=3_000,
+    )
     box = stop.bounding_box()
     assert box is not None and box["y"] >= 0 and box["y"] + box["height"] <= 768  # on screen
     assert page.locator("#ptwl-telemetry").is_visible()
