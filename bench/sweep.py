@@ -34,7 +34,7 @@ from ptwl.experiments.sweep.trial import simulate
 
 def rate(specs: list[TrialSpec], workers: int) -> tuple[dict[str, Any], list[dict[str, Any]]]:
     t0 = time.perf_counter()
-    rows = list(run_local(specs, workers))
+    rows = [row for row, _ in run_local(specs, workers)]
     wall = time.perf_counter() - t0
     sim_s = statistics.fmean(r["operator_time_s"] for r in rows)
     per_min = 60.0 * len(rows) / wall

@@ -1,5 +1,6 @@
 """Where trials run: a local process pool (default) or Ray tasks. Each trial is a pure function
-of its settings (trial.run_trial), so both give the same rows; they come back as they end."""
+of its settings (trial.run_trial), so both give the same rows; they come back as they end, each
+with the name of the node that ran it (`local` for the process pool; a Ray node's id, short)."""
 
 import ctypes
 import ctypes.util
@@ -19,6 +20,8 @@ from ptwl.experiments.sweep.spec import TrialSpec
 from ptwl.experiments.sweep.trial import run_trial
 
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
+LOCAL = "local"
+Finished = tuple[dict[str, Any], str]  # a trial's row, and the node that ran it
 
 
 def _worker_init(sweep_pid: int) -> None:
@@ -46,39 +49,52 @@ def _kill_me_with_parent() -> bool:
         return False
 
 
-def run_local(
-    specs: list[TrialSpec], workers: int, record_dir: str | None = None
-) -> Iterator[dict[str, Any]]:
+def run_local(specs: list[TrialSpec], workers: int, record_dir: str | None = None) -> Iterator[Finished]:
     if not specs:
         return
     with ProcessPoolExecutor(max_workers=workers, initializer=_worker_init, initargs=(os.getpid(),)) as pool:
         futures = [pool.submit(run_trial, spec, record_dir) for spec in specs]
         try:
             for future in as_completed(futures):
-                yield future.result()
+                yield future.result(), LOCAL
         finally:
             pool.shutdown(wait=True, cancel_futures=True)  # Ctrl-C: the running ones finish
 
 
+def _trial_on_node(spec: TrialSpec, record_dir: str | None) -> Finished:
+    """A Ray task: the trial, and the node it ran on."""
+    import ray
+
+    return run_trial(spec, record_dir), ray.get_runtime_context().get_node_id()[:NODE_ID_CHARS]
+
+
+NODE_ID_CHARS = 8  # a Ray node id (56 hex digits) as progress and sweep.json name it
+
+
 def run_ray(
     specs: list[TrialSpec], workers: int, address: str | None, record_dir: str | None = None
-) -> Iterator[dict[str, Any]]:
+) -> Iterator[Finished]:
     """On the cluster at `address` (or RAY_ADDRESS), else a local one on loopback with `workers`
-    CPUs. A remote cluster's nodes need this package installed (`pip install -e ".[ray]"`), and
-    recordings land on the disk of the node that ran the trial."""
+    CPUs. A remote cluster's nodes need this package installed (`pip install -e ".[ray]"`) and
+    the cluster's token (RAY_AUTH_MODE=token and RAY_AUTH_TOKEN, the same on every node and
+    here), and recordings land on the disk of the node that ran the trial."""
     import ray  # the optional extra: available() said so before the sweep began
 
     address = address or os.environ.get("RAY_ADDRESS") or None
     started = not ray.is_initialized()
     if started:
         if address is None:
-            ray.init(
-                num_cpus=workers, include_dashboard=False, _node_ip_address="127.0.0.1", log_to_driver=False
+            ray.init(  # "local": a cluster of its own, never one a `ray start` left its address of
+                address="local",
+                num_cpus=workers,
+                include_dashboard=False,
+                _node_ip_address="127.0.0.1",
+                log_to_driver=False,
             )
         else:
             ray.init(address=address, log_to_driver=False)
     try:
-        remote = ray.remote(num_cpus=1)(run_trial)
+        remote = ray.remote(num_cpus=1)(_trial_on_node)
         pending = [remote.remote(spec, record_dir) for spec in specs]
         while pending:
             ready, pending = ray.wait(pending, num_returns=1)
@@ -100,7 +116,7 @@ def available(backend: str) -> None:
 
 def run(
     specs: list[TrialSpec], backend: str, workers: int, address: str | None, record_dir: str | None = None
-) -> Iterator[dict[str, Any]]:
+) -> Iterator[Finished]:
     if backend == "ray":
         return run_ray(specs, workers, address, record_dir)
     return run_local(specs, workers, record_dir)

@@ -14,6 +14,7 @@ import json
 import platform
 import sys
 import time
+from collections import Counter
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any, TextIO
@@ -40,6 +41,7 @@ class Progress:
     def __init__(self, total: int, done: int, stream: TextIO = sys.stderr) -> None:
         self.total, self.done, self.stream = total, done, stream
         self._started, self._new = time.monotonic(), 0
+        self.by_node: Counter[str] = Counter()  # this run's trials, by the node that ran them
         self._bar = (
             tqdm(total=total, initial=done, unit="trial", desc="sweep", file=stream)
             if stream.isatty()
@@ -47,10 +49,14 @@ class Progress:
         )
         self._every = max(1, total // 50)
 
-    def update(self) -> None:
+    def update(self, node: str) -> None:
         self.done += 1
         self._new += 1
+        self.by_node[node] += 1
+        nodes = self._nodes()
         if self._bar is not None:
+            if nodes:
+                self._bar.set_postfix_str(nodes, refresh=False)
             self._bar.update()
             return
         if self._new % self._every == 0 or self.done == self.total:
@@ -58,10 +64,17 @@ class Progress:
             rate = self._new / elapsed if elapsed > 0 else 0.0
             eta = (self.total - self.done) / rate if rate > 0 else float("inf")
             print(
-                f"sweep: {self.done}/{self.total} trials, {60.0 * rate:.1f} trials/min, ETA {eta:.0f} s",
+                f"sweep: {self.done}/{self.total} trials, {60.0 * rate:.1f} trials/min, ETA {eta:.0f} s"
+                + (f" ({nodes})" if nodes else ""),
                 file=self.stream,
                 flush=True,
             )
+
+    def _nodes(self) -> str:
+        """Trials per node ("node 3f2a9c1e: 5, node 77b0d412: 4"), once a second node has run one."""
+        if len(self.by_node) < 2:
+            return ""
+        return ", ".join(f"node {name}: {count}" for name, count in sorted(self.by_node.items()))
 
     def close(self) -> None:
         if self._bar is not None:
@@ -121,7 +134,14 @@ def _check_directory(out: Path, settings: SweepSettings) -> None:
             )
 
 
-def _write_json(out: Path, settings: SweepSettings, specs: list[TrialSpec], done: int, wall_s: float) -> None:
+def _write_json(
+    out: Path,
+    settings: SweepSettings,
+    specs: list[TrialSpec],
+    done: int,
+    wall_s: float,
+    by_node: dict[str, int] | None = None,
+) -> None:
     record = {
         "arguments": asdict(settings),
         "versions": versions(settings.backend),
@@ -130,6 +150,7 @@ def _write_json(out: Path, settings: SweepSettings, specs: list[TrialSpec], done
         "trials_done": done,
         "complete": done == len(specs),
         "wall_s_this_run": wall_s,
+        "trials_by_node_this_run": by_node or {},
     }
     tmp = out / "sweep.json.tmp"
     tmp.write_text(json.dumps(record, indent=2) + "\n")
@@ -156,13 +177,15 @@ def run_sweep(settings: SweepSettings, stream: TextIO = sys.stderr) -> list[dict
         if settings.record:
             (out / RECORDINGS).mkdir(exist_ok=True)
             record_dir = str((out / RECORDINGS).resolve())
-        for row in backends.run(todo, settings.backend, settings.workers, settings.ray_address, record_dir):
+        for row, node in backends.run(
+            todo, settings.backend, settings.workers, settings.ray_address, record_dir
+        ):
             writer.append(row)
-            progress.update()
+            progress.update(node)
     finally:
         writer.close()
         progress.close()
-        _write_json(out, settings, specs, progress.done, time.monotonic() - started)
+        _write_json(out, settings, specs, progress.done, time.monotonic() - started, dict(progress.by_node))
     wanted = set(order)
     mine = [r for r in write_sorted(csv_path, read_rows(csv_path), order) if row_key(r) in wanted]
     table = write_summary(out, mine)
