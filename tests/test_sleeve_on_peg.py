@@ -148,4 +148,4 @@ def test_one_degree_jams_deep_and_one_new_approach_gets_it_in() -> None:
         assert 5.0 <= engaged_mm <= 6.5, engaged_mm
         assert run.success and len(run.steps) == 5
         turned_deg = float(re.search(r"turn the approach: ([0-9.]+) deg", run.steps[3].why).group(1))  # type: ignore[union-attr]
-        assert 0.8 <= turned_deg <= 1.0
+        assert turned_deg == pytest.approx(math.degrees(2 * 0.0445 / engaged_mm), abs=0.02)  # 2c / L

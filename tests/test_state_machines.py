@@ -337,3 +337,29 @@ def test_a_state_machine_for_another_scene_is_refused(sleeve_server) -> None:  #
         client.reset_scene("sleeve_on_peg")
     assert reply.status_code == 422 and "needs scene sleeve_on_peg; surface is loaded" in reply.text
     assert "task" in reply.json()["errors"][0]["field"]
+
+
+def turns_after(jams: list[tuple[float, tuple[float, float]]]) -> list[np.ndarray]:
+    """The approach (home's tool x, y [rad]) each round turns to, for jams (depth, torque)."""
+    policy = SleeveOnPeg()
+    policy.first(HOME)
+    R_world_port = rotation_matrix(np.asarray(HOME.quaternion))
+    approaches = []
+    for depth_m, torque in jams:
+        policy.next(jam(depth_m, torque))
+        policy.next(report(ExitCondition.COMPLETED, depth_m, "rwe"))
+        turn = policy.next(report(ExitCondition.GOAL_REACHED, depth_m - 0.004, "dither"))
+        assert isinstance(turn, Step) and isinstance(turn.params, PtwlParams)
+        approaches.append((R_world_port.T @ np.asarray(turn.params.rotation))[0:2])
+        policy.next(report(ExitCondition.GOAL_REACHED, depth_m - 0.004, "ptwl"))
+    return approaches
+
+
+def test_sleeve_policy_keeps_its_approach_without_a_torque_and_turns_at_most_6_degrees_in_all() -> None:
+    on_chamfer = sleeve.MOUTH_M + 0.001  # 1 deg a round
+    still = turns_after([(on_chamfer, (0.0, 0.3)), (on_chamfer, (0.004, 0.0))])  # 4 mN m: no direction
+    assert still[1] == pytest.approx(still[0], abs=1e-9)
+    deep = sleeve.MOUTH_M + sleeve.CHAMFER_M + 0.0013  # each jam says 3.9 deg the same way
+    far = turns_after([(deep, (0.3, 0.0))] * 3)
+    assert np.degrees(np.linalg.norm(far[0])) == pytest.approx(3.92, abs=0.01)
+    assert np.degrees(np.linalg.norm(far[2])) == pytest.approx(6.0, abs=1e-6)

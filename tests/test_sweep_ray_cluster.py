@@ -101,6 +101,8 @@ def two_nodes(tmp_path: Path) -> Iterator[tuple[str, dict[str, str]]]:
         nodes.append(ray_start([f"--address={address}"], env, tmp_path / "second.log"))
         deadline = time.monotonic() + NODE_START_S
         while alive_nodes(address, env) < 2:
+            exited = [node.args for node in nodes if node.poll() is not None]
+            assert not exited, f"a node exited: {exited}; {(tmp_path / 'head.log').read_text()[-2000:]}"
             assert time.monotonic() < deadline, (tmp_path / "head.log").read_text()[-2000:]
             time.sleep(1.0)
         yield address, env
@@ -109,11 +111,11 @@ def two_nodes(tmp_path: Path) -> Iterator[tuple[str, dict[str, str]]]:
             with contextlib.suppress(ProcessLookupError):
                 os.killpg(node.pid, signal.SIGINT)
         for node in nodes:
-            try:
+            with contextlib.suppress(subprocess.TimeoutExpired):
                 node.wait(timeout=30)
-            except subprocess.TimeoutExpired:
+            with contextlib.suppress(ProcessLookupError):  # whatever of the node outlived its CLI
                 os.killpg(node.pid, signal.SIGKILL)
-                node.wait()
+            node.wait()
         shutil.rmtree(temp_dir, ignore_errors=True)
 
 

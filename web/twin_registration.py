@@ -31,13 +31,14 @@ from robot_sim.sim import Simulation
 CONTACT_N = 3.0  # [N] a reported force at least this: the robot's tool is touching the fixture
 REACH_M = 0.01  # [m] distances looked at: a twin farther off than this is wrong in another way
 MAX_SHIFT_M = 0.01  # [m] the fixture moves at most this far from its nominal place
-WINDOW = 20  # informative restarts solved over (10 s at one every 0.5 s)
+WINDOW = 20  # informative restarts solved over (10 s at one every 0.5 s), each 1-ROUNDS equations
 MIN_DISTANCE_M = 1e-6  # [m] closer than this the normal is undefined: the sample says nothing
 # Never restart inside: while the fit leaves the twin's tool deeper than INSIDE_M in its fixture
 # (the window's older equations, from other places on a 16-sided sleeve, outvote the new one: a
 # sleeve 0.9 mm into its peg was thrown 15 mm), the deepest pair there is another equation.
 INSIDE_M = 1e-5
 ROUNDS = 6
+NOW_WEIGHT = 100.0  # this restart's rows against the older ones (10^4 in the squared residuals)
 
 
 @dataclass(frozen=True)
@@ -71,8 +72,8 @@ class FixtureRegistration:
         self.name = sim.scene.fixture_body
         self._nominal = model.body_pos[self.body].copy()
         self._shift = np.zeros(3)
-        # (n, d0, a bound only): n.x = d0, or n.x <= d0 for a bound
-        self._equations: deque[tuple[np.ndarray, float, bool]] = deque(maxlen=WINDOW)
+        # Per informative restart, its equations (n, d0, a bound only): n.x = d0, or n.x <= d0
+        self._restarts: deque[list[tuple[np.ndarray, float, bool]]] = deque(maxlen=WINDOW)
         fixture, tool = _subtree(model, self.body), _subtree(model, sim.layout.tool_body)
         self._pairs = [
             (f, t)
@@ -89,9 +90,9 @@ class FixtureRegistration:
     def observe(self, sim: Simulation, force_n: float) -> None:
         """The twin has just been put at the robot's reported joints; the robot measured `force_n`
         [N]. Adds what this says of the fixture, solves, and moves the twin's fixture."""
-        if not np.array_equal(sim.model.body_pos[self.body], self._nominal + self._shift):
-            self._place(sim)  # a model made anew (the twin's own fault reloads its scene)
+        self.ensure_placed(sim)
         touching = force_n >= CONTACT_N
+        now: list[tuple[np.ndarray, float, bool]] = []  # this restart's equations
         for round_ in range(ROUNDS):
             found = self._closest(sim)
             if found is None:
@@ -102,22 +103,31 @@ class FixtureRegistration:
             if round_ > 0 and distance_m >= -INSIDE_M:
                 return  # the fit has the twin out of its own fixture
             d0 = distance_m + float(normal @ self._shift)  # with the fixture at its nominal place
-            # Touching: n.x = d0. Free while the twin overlaps (d0 < 0): only a bound, n.x <= d0
-            # (the real distance d0 - n.x is >= 0: the fixture is at least that far off; how
-            # much farther, this does not say).
-            self._equations.append((normal, d0, not touching))
-            self._solve(now=round_ + 1)
+            # Touching, the closest pair: n.x = d0. Free while the twin overlaps (d0 < 0), or a
+            # later round's pair (the robot's force says the closest pair touches, not this
+            # one): only a bound, n.x <= d0 (the real distance d0 - n.x is >= 0: the fixture is
+            # at least that far off; how much farther, this does not say).
+            now.append((normal, d0, not touching or round_ > 0))
+            if round_ == 0:
+                self._restarts.append(now)
+            self._solve()
+            self._place(sim)
+
+    def ensure_placed(self, sim: Simulation) -> None:
+        """The fixture where the fit put it, in a model made anew (the twin's own fault reloads
+        its scene at the nominal place)."""
+        if not np.array_equal(sim.model.body_pos[self.body], self._nominal + self._shift):
             self._place(sim)
 
     def forget(self, sim: Simulation) -> None:
         """Back to the nominal place, with no evidence (the robot's scene reloaded)."""
         self._shift = np.zeros(3)
-        self._equations.clear()
+        self._restarts.clear()
         self._place(sim)
 
     def registered(self) -> Registered:
         x, y, z = (float(v) for v in self._shift)
-        return Registered(self.name, (x, y, z), len(self._equations))
+        return Registered(self.name, (x, y, z), sum(len(group) for group in self._restarts))
 
     def _closest(self, sim: Simulation) -> tuple[float, np.ndarray] | None:
         """(signed distance [m], unit normal from fixture to tool) of the closest pair in reach."""
@@ -131,15 +141,16 @@ class FixtureRegistration:
                 best = (d, (self._fromto[3:6] - self._fromto[0:3]) / d)
         return best
 
-    def _solve(self, now: int = 0) -> None:
+    def _solve(self) -> None:
         """Least squares over the equations, with each bound the fit breaks taken as an
-        equation too (an active set: a few rounds suffice for a handful of bounds). The last
-        `now` equations (this restart's) weigh as much as the whole window: what the robot
-        shows now outranks what it showed elsewhere."""
-        weighted = [
-            (weight * n, weight * d0, bound)
-            for i, (n, d0, bound) in enumerate(self._equations)
-            for weight in [float(WINDOW) if i >= len(self._equations) - now else 1.0]
+        equation too (an active set: a few rounds suffice for a handful of bounds). The latest
+        restart's rows are scaled by NOW_WEIGHT: near constraints, what the robot shows now;
+        the older rows fill in the directions those leave free (sideways under a press). With
+        equal weights, twenty older rows from elsewhere on a 16-sided bore outvoted the new one
+        and left the twin 0.1-0.9 mm inside its peg."""
+        *older, latest = list(self._restarts) or [[]]
+        weighted = [(n, d0, bound) for group in older for n, d0, bound in group] + [
+            (NOW_WEIGHT * n, NOW_WEIGHT * d0, bound) for n, d0, bound in latest
         ]
         equalities = [(n, d0) for n, d0, bound in weighted if not bound]
         bounds = [(n, d0) for n, d0, bound in weighted if bound]

@@ -105,7 +105,8 @@ GIVE_WAY_M = 0.0005  # [m] the port moving this far in that time: it does not
 
 def _gives_way(sim: Simulation) -> bool:
     """Whether the twin, idle from where it was just put, moves GIVE_WAY_M within GIVE_WAY_S:
-    what holds the robot still is not in the twin's model. Leaves the twin run on: re-sync it."""
+    what holds the robot still is not in the twin's model. Leaves the twin run on: the caller
+    puts it back."""
     start = sim.controller.p_world_port.copy()
     end_s = sim.time + GIVE_WAY_S
     while sim.time < end_s:
@@ -184,14 +185,20 @@ class TwinSim:
             self.registration.observe(sim, force_n)
         wrench = np.asarray(state["wrench"], dtype=float)
         robot_speed = float(np.linalg.norm(sim.controller.twist_for(wrench)[0:3]))
-        held = force_n >= CONTACT_N and robot_speed < STILL_M_S and _gives_way(sim)
+        held = False
+        if force_n >= CONTACT_N and robot_speed < STILL_M_S:
+            held = _gives_way(sim)
+            # The probe ran the twin on (and a fault in it would have reloaded the model):
+            # back to the reported state, the fixture where the registration put it.
+            sim.sync_to(t_state, state["joint_positions"], attractor, gains_now)
+            if self.registration is not None:
+                self.registration.ensure_placed(sim)
         if held:
             # The robot is held still by a contact the twin's model cannot bear (its fixture not
             # quite where the robot's is: a sleeve beside the peg slid on in the twin where the
             # robot's stayed jammed, 26 mm off): the twin holds there too, pressing on nothing,
             # and leaves the robot's stalled move out, rather than run to an attractor set
             # against a force it does not feel.
-            sim.sync_to(t_state, state["joint_positions"], attractor, gains_now)
             sim.controller.balance(np.zeros(6))
         self._queue.clear()
         if not held and running is not None and running.get("started_at") is not None:

@@ -44,8 +44,11 @@ MOUTH_M = 0.02045  # [m] travel from home at which the sleeve's mouth reaches th
 CHAMFER_M = 0.0015  # [m] the peg's top chamfer: the cylinder (the fit) starts below it
 RADIAL_CLEARANCE_M = 0.0445e-3  # [m] the paper's 1.0035" bore over a 1" peg, per side
 CHAMFER_TURN_RAD = math.radians(1.0)  # a jam on the chamfer says which way, not how far
-MAX_TURN_RAD = math.radians(4.0)
-# Back out until the fit lets go: the deepest jam that needs a new approach is ~5 mm in.
+MAX_TURN_RAD = math.radians(4.0)  # one turn
+MAX_APPROACH_RAD = math.radians(6.0)  # all the turns together, from home's axis
+MIN_TORQUE_NM = 0.005  # [N m] a jam's torque across the axis below this gives no direction (0.017 seen)
+# Back out 4 mm (a 1 deg jam is ~7 mm in: it stays on the peg, but no longer wedged, the turn
+# made above the wedge's depth).
 RETRACT = DitherParams(preset="torsional_pull", progress=0.004)
 
 
@@ -68,7 +71,7 @@ class SleeveOnPeg(InsertionPolicy):
     task = "sleeve_on_peg"
     summary = (
         "insert (PTWL); on a jam relieve (RWE), retract (dither), turn the approach the way the "
-        "jam's torque pushes (PTWL) and insert again, up to 8 times"
+        "jam's torque pushes (PTWL) and insert again, up to `max_recoveries` (8) rounds"
     )
     settings_model = SleeveSettings
     # `medium` named: a state machine must not inherit whatever gains the last operator left.
@@ -88,7 +91,7 @@ class SleeveOnPeg(InsertionPolicy):
         phase, self.phase = self.phase, "insert"
         if phase == "relieve":
             self.phase = "retract"
-            return Step(RETRACT, "retract: dither back out 4 mm, turning, so the fit lets go")
+            return Step(RETRACT, "retract: dither back out 4 mm, turning, out of the wedge")
         if phase == "retract":
             assert self.home is not None
             goal = turned_in_tool_axes(self.home, self.turn_xy_rad)
@@ -124,12 +127,17 @@ class SleeveOnPeg(InsertionPolicy):
             return gave_up
         torque = torque_in_tool_xy(report)
         size = float(np.linalg.norm(torque))
-        turn = np.zeros(2) if size == 0.0 else jam_tilt_rad(travel_m) * torque / size
-        last = self.last_turn_xy_rad
-        if last is not None and float(turn @ last) < 0.0:  # overshot: back, at most half as far
-            turn *= min(1.0, 0.5 * float(np.linalg.norm(last)) / max(float(np.linalg.norm(turn)), 1e-12))
-        self.last_turn_xy_rad = turn
-        self.turn_xy_rad = self.turn_xy_rad + turn
+        if size >= MIN_TORQUE_NM:  # else no direction to turn: retract and insert along the same
+            turn = jam_tilt_rad(travel_m) * torque / size
+            last = self.last_turn_xy_rad
+            if last is not None and float(turn @ last) < 0.0:  # overshot: back, at most half as far
+                turn *= min(1.0, 0.5 * float(np.linalg.norm(last)) / float(np.linalg.norm(turn)))
+            self.last_turn_xy_rad = turn
+            approach = self.turn_xy_rad + turn
+            reach = float(np.linalg.norm(approach))
+            self.turn_xy_rad = (
+                approach if reach <= MAX_APPROACH_RAD else approach * (MAX_APPROACH_RAD / reach)
+            )
         self.phase = "relieve"
         return Step(
             RELIEVE,
