@@ -20,8 +20,9 @@ The machine:
                                                 port, the way the jam's torque pushed it, by the
                                                 tilt the jam's depth implies (2c / engagement;
                                                 1 deg when it jammed on the chamfer); half the
-                                                last turn at most when it pushes back the other way
-              then insert again along it; after `max_recoveries` (8) jams: failed
+                                                last turn at most when it pushes back the other
+                                                way; none under 5 mN m; 6 deg from home's at most
+              then insert again along it; jammed again after `max_recoveries` (8) rounds: failed
 
 It judges depth only by how far the port has travelled down the tool axis since the start (the
 sleeve's mouth is 20.45 mm above the peg's top at home, the chamfer 1.5 mm), never by the
