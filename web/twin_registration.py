@@ -35,7 +35,7 @@ WINDOW = 20  # informative restarts solved over (10 s at one every 0.5 s), each 
 MIN_DISTANCE_M = 1e-6  # [m] closer than this the normal is undefined: the sample says nothing
 # Never restart inside: while the fit leaves the twin's tool deeper than INSIDE_M in its fixture
 # (the window's older equations, from other places on a 16-sided sleeve, outvote the new one: a
-# sleeve 0.9 mm into its peg was thrown 15 mm), the deepest pair there is another equation.
+# sleeve 0.9 mm into its peg was thrown 15 mm), the deepest pair there is another bound.
 INSIDE_M = 1e-5
 ROUNDS = 6
 NOW_WEIGHT = 100.0  # this restart's rows against the older ones (10^4 in the squared residuals)

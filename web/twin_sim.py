@@ -180,10 +180,10 @@ class TwinSim:
             gains_now = gains_now.in_frame("base")
         attractor = _pose(state["attractor"])
         sim.sync_to(t_state, state["joint_positions"], attractor, gains_now)
-        force_n = float(np.linalg.norm(state["wrench"][0:3]))
+        wrench = np.asarray(state["wrench"], dtype=float)
+        force_n = float(np.linalg.norm(wrench[0:3]))
         if self.registration is not None:  # before it runs on: never from inside its own fixture
             self.registration.observe(sim, force_n)
-        wrench = np.asarray(state["wrench"], dtype=float)
         robot_speed = float(np.linalg.norm(sim.controller.twist_for(wrench)[0:3]))
         held = False
         if force_n >= CONTACT_N and robot_speed < STILL_M_S:

@@ -18,7 +18,7 @@ from pydantic import Field
 
 from robot_sim.behaviors import Pose
 from robot_sim.params import DitherParams, PtwlParams, RweParams
-from robot_sim.policies.base import Decision, Finish, Policy, PolicySettings, Step
+from robot_sim.policies.base import Decision, Finish, PolicySettings, StagedPolicy, Step
 from robot_sim.policies.travel import travel_down_tool_axis_m
 
 RELIEVE = RweParams(duration=1.0)
@@ -31,7 +31,7 @@ class InsertionSettings(PolicySettings):
     insert_force_threshold: float = Field(25.0, gt=0.0, le=500.0, description="[N] the insertion PTWL's")
 
 
-class InsertionPolicy(Policy):
+class InsertionPolicy(StagedPolicy):
     """An insertion PTWL (`INSERT`, its threshold from the settings) and the recovery rounds."""
 
     INSERT: PtwlParams
@@ -41,13 +41,11 @@ class InsertionPolicy(Policy):
     def __init__(self, overrides: dict[str, object] | None = None) -> None:
         super().__init__(overrides)
         self.insert = self.INSERT.model_copy(update={"force_threshold": self.settings.insert_force_threshold})
-        self.home: Pose | None = None
         self.recoveries = 0
         self.pending: list[Step] = []
 
     def travel_m(self, port: Pose) -> float:
-        assert self.home is not None, "next() before first()"
-        return travel_down_tool_axis_m(self.home, port)
+        return travel_down_tool_axis_m(self.start, port)
 
     def out_of_rounds(self, travel_m: float) -> Finish | None:
         """Failed, once `max_recoveries` rounds have not got it in; else None (counted: one more)."""

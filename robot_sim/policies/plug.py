@@ -21,7 +21,7 @@ since the start (the face nominally 15 mm below home), never by the predicate.
 
 from pydantic import Field
 
-from robot_sim.behaviors import BehaviorReport, Pose
+from robot_sim.behaviors import BehaviorReport
 from robot_sim.params import PtwlParams
 from robot_sim.policies.base import Decision, Finish, Step
 from robot_sim.policies.insertion import RELIEVE, InsertionPolicy, InsertionSettings
@@ -72,9 +72,10 @@ class Plug(InsertionPolicy):
         self.inserting = False
         self.relieving = False
 
-    def first(self, port: Pose) -> Step:
-        self.home = port
-        return Step(APPROACH, "approach: PTWL 40 mm down at up to 6 N, to find the outlet's face")
+    def opening(self) -> Step:
+        return self.stage(
+            "approach", APPROACH, "approach: PTWL 40 mm down at up to 6 N, to find the outlet's face"
+        )
 
     def next(self, report: BehaviorReport) -> Decision:
         travel = self.travel_m(report.final_port)

@@ -15,7 +15,7 @@ mouth is nominally 20 mm below home, the latched seat 40 mm), never by the predi
 
 from pydantic import Field
 
-from robot_sim.behaviors import BehaviorReport, Pose
+from robot_sim.behaviors import BehaviorReport
 from robot_sim.params import PtwlParams
 from robot_sim.policies.base import Decision, Finish, Step
 from robot_sim.policies.insertion import RELIEVE, InsertionPolicy, InsertionSettings
@@ -44,11 +44,12 @@ class QuickConnect(InsertionPolicy):
         self.seated = False
         self.seat_m = 0.0  # [m] travel when it seated
 
-    def first(self, port: Pose) -> Step:
-        self.home = port
+    def opening(self) -> Step:
         threshold = self.insert.force_threshold
-        return Step(
-            self.insert, f"insert: PTWL 60 mm down the tool axis at up to {threshold:g} N, to push the latch"
+        return self.stage(
+            "insert",
+            self.insert,
+            f"insert: PTWL 60 mm down the tool axis at up to {threshold:g} N, to push the latch",
         )
 
     def next(self, report: BehaviorReport) -> Decision:

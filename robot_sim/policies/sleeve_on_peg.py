@@ -34,7 +34,7 @@ import math
 import numpy as np
 from pydantic import Field
 
-from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
+from robot_sim.behaviors import BehaviorReport, ExitCondition
 from robot_sim.params import DitherParams, PtwlParams
 from robot_sim.policies.base import Decision, Finish, Step
 from robot_sim.policies.insertion import RELIEVE, InsertionPolicy, InsertionSettings
@@ -82,24 +82,21 @@ class SleeveOnPeg(InsertionPolicy):
         super().__init__(overrides)
         self.turn_xy_rad = np.zeros(2)  # the approach, turned from home's about home's tool x, y
         self.last_turn_xy_rad: np.ndarray | None = None
-        self.phase = "insert"
 
-    def first(self, port: Pose) -> Step:
-        self.home = port
-        return Step(self.insert, "insert: PTWL 70 mm down the tool axis, 9 mm past the sleeve's bottom")
+    def opening(self) -> Step:
+        return self.stage(
+            "insert", self.insert, "insert: PTWL 70 mm down the tool axis, 9 mm past the sleeve's bottom"
+        )
 
     def next(self, report: BehaviorReport) -> Decision:
-        phase, self.phase = self.phase, "insert"
-        if phase == "relieve":
-            self.phase = "retract"
-            return Step(RETRACT, "retract: dither back out 4 mm, turning, out of the wedge")
-        if phase == "retract":
-            assert self.home is not None
-            goal = turned_in_tool_axes(self.home, self.turn_xy_rad)
+        if self.last == "relieve":
+            return self.stage("retract", RETRACT, "retract: dither back out 4 mm, turning, out of the wedge")
+        if self.last == "retract":
+            goal = turned_in_tool_axes(self.start, self.turn_xy_rad)
             _, rotation = report.final_port.displacement_to(goal)
-            self.phase = "turn"
             tilt_deg = math.degrees(float(np.linalg.norm(self.turn_xy_rad)))
-            return Step(
+            return self.stage(
+                "turn",
                 PtwlParams(
                     rotation=rotation,
                     frame="base",
@@ -110,8 +107,8 @@ class SleeveOnPeg(InsertionPolicy):
                 ),
                 f"turn the approach: {tilt_deg:.2f} deg from home's",
             )
-        if phase == "turn":
-            return Step(self.insert, "insert again along the new approach")
+        if self.last == "turn":
+            return self.stage("insert", self.insert, "insert again along the new approach")
         travel = self.travel_m(report.final_port)
         if report.exit is not ExitCondition.WRENCH_BREACH:
             return Finish(True, f"insertion ended {report.exit} with no breach, {1000 * travel:.1f} mm down")
@@ -139,8 +136,8 @@ class SleeveOnPeg(InsertionPolicy):
             self.turn_xy_rad = (
                 approach if reach <= MAX_APPROACH_RAD else approach * (MAX_APPROACH_RAD / reach)
             )
-        self.phase = "relieve"
-        return Step(
+        return self.stage(
+            "relieve",
             RELIEVE,
             f"{why} ({self.recoveries}), torque {size:.2f} N m across the axis; relieve the wrench first",
         )

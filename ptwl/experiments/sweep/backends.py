@@ -21,6 +21,7 @@ from ptwl.experiments.sweep.trial import run_trial
 
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
 LOCAL = "local"
+NODE_ID_CHARS = 8  # a Ray node id (56 hex digits) as progress and sweep.json name it
 Finished = tuple[dict[str, Any], str]  # a trial's row, and the node that ran it
 
 
@@ -66,9 +67,6 @@ def _trial_on_node(spec: TrialSpec, record_dir: str | None) -> Finished:
     import ray
 
     return run_trial(spec, record_dir), ray.get_runtime_context().get_node_id()[:NODE_ID_CHARS]
-
-
-NODE_ID_CHARS = 8  # a Ray node id (56 hex digits) as progress and sweep.json name it
 
 
 def run_ray(
