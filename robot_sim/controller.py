@@ -12,9 +12,10 @@ then joint velocities are held to the joint speed and acceleration limits and ta
 joint limits, and sent to the joint servos (ctrl = qdot for the integrated-velocity and the
 feed-forward servo).
 
-Multi-rate, because Python call overhead (~0.4 us a call) would otherwise cost more than the
-physics: the *signals* (raw wrench, stretch) are read every tick, and everything between them
-and the joint velocities is linear in them, so it is one precomposed (6, 13) matrix
+The per-tick math is compiled (tick.py); this class keeps what runs once per command.
+Multi-rate, because the kinematics cost more than the physics: the *signals* (raw wrench,
+stretch) are read every tick, and everything between them and the joint velocities is linear
+in them, so it is one precomposed (6, 13) matrix
 
     qdot = Q v,   v = [filtered sensor wrench (6), position stretch (3), rotation error in port axes (3), 1]
 
@@ -27,34 +28,23 @@ and port orientation) and is rebuilt every KINEMATICS_TICKS ticks (8 ms), or eve
 < 1 mrad at quasi-static speeds. Wrench and stretch feedback stay at the full 1 kHz.
 """
 
+import ctypes
 import math
 from enum import StrEnum
 
 import mujoco
 import numpy as np
 
+from robot_sim import tick
 from robot_sim.arm import ArmLayout
 from robot_sim.errors import SimulationFault
 from robot_sim.gains import Gains
 from robot_sim.payload import Payload
-from robot_sim.pose_math import IDENTITY_QUAT, rotate_world, turn6
+from robot_sim.pose_math import turn6
+from robot_sim.tick import LAMBDA_FLOOR_SQ, LAMBDA_MAX, MANIPULABILITY_THRESHOLD  # noqa: F401 (the rule's home)
 
-# Damped least squares: lambda^2 grows from 0 to LAMBDA_MAX^2 as the manipulability
-# sqrt(det(J J^T)) falls below MANIPULABILITY_THRESHOLD (Chiaverini's singularity-robust
-# inverse). Far from singularities the inverse is exact, so the free-space response stays the
-# designed first-order lag. The home pose has manipulability ~0.028, the fully stretched arm 0.
-MANIPULABILITY_THRESHOLD = 0.012
-LAMBDA_MAX = 0.1
-LAMBDA_FLOOR_SQ = 1e-10
-# Within this distance of a joint limit [rad], motion toward it is tapered linearly to zero.
-JOINT_LIMIT_MARGIN_RAD = 0.15
 # Joint acceleration limit [rad/s^2], of the order of a small arm's drives.
 JOINT_ACCEL_LIMIT = np.array([40.0, 40.0, 40.0, 80.0, 80.0, 100.0])
-# Rebuild Q (Jacobian, DLS inverse, sensor rotation) every N ticks; see the module docstring.
-# Every tick instead while near a singularity or while the joints move fast.
-KINEMATICS_TICKS = 8
-FAST_REFRESH_MANIPULABILITY_RATIO = 2.0  # manipulability / MANIPULABILITY_THRESHOLD
-FAST_REFRESH_SPEED = 1.0  # |qdot| [rad/s]
 # First-order low-pass on the F/T signal the admittance law uses [Hz]. Without it the loop
 # limit-cycles in stiff contact at low damping (see limits.py for the measured floors).
 # Thresholds are checked on the raw signal: a filter must never hide a breach.
@@ -63,10 +53,23 @@ FT_CUTOFF_HZ = 100.0
 STIFFNESS_EPS = 1e-9
 
 
-def _rotated_diagonal(R: np.ndarray, diagonal: np.ndarray, out: np.ndarray, tmp: np.ndarray) -> None:
-    """out = R diag(diagonal) R^T (3, 3): a diagonal gain in R's axes, seen in base axes."""
-    np.multiply(R, diagonal, out=tmp)
-    np.dot(tmp, R.T, out=out)
+def _rotated_diagonal(R: np.ndarray, diagonal: np.ndarray) -> np.ndarray:
+    """(3, 3) R diag(diagonal) R^T: a diagonal gain in R's axes, seen in base axes."""
+    return (R * diagonal) @ R.T
+
+
+def time_view(data: mujoco.MjData) -> np.ndarray:
+    """(1,) a view of data.time, which the bindings give only as a number: in mjData `time`
+    comes right before `energy[2]`, whose view they do give (checked here both ways)."""
+    energy = data.energy
+    view = np.ctypeslib.as_array((ctypes.c_double * 1).from_address(energy.ctypes.data - 8))
+    saved = data.time
+    for probe in (1.25, -3.5):
+        data.time = probe
+        if view[0] != probe:
+            raise RuntimeError("this MuJoCo's mjData does not keep `time` right before `energy`")
+    data.time = saved
+    return view
 
 
 class Limit(StrEnum):
@@ -77,8 +80,19 @@ class Limit(StrEnum):
     SPEED = "speed"  # a joint hit its datasheet speed: the whole motion was scaled down
 
 
+_LIMIT_BITS = (
+    (tick.LIMIT_SINGULARITY, Limit.SINGULARITY),
+    (tick.LIMIT_JOINT_LIMIT, Limit.JOINT_LIMIT),
+    (tick.LIMIT_SPEED, Limit.SPEED),
+)
+JOINT_ENDS = {tick.JOINT_AT_LOWER: "lower", tick.JOINT_AT_UPPER: "upper"}
+
+
 class AdmittanceController:
-    """Turns the stretch to the attractor and the sensed wrench into joint-velocity commands."""
+    """Turns the stretch to the attractor and the sensed wrench into joint-velocity commands.
+
+    The per-tick math is tick.py's (compiled); this object owns its state buffers, names views
+    into them, and keeps the rules that run once per command (gains, balancing, placing)."""
 
     def __init__(
         self,
@@ -101,85 +115,163 @@ class AdmittanceController:
         self.model = model
         self.data = data
         self.layout = layout
-        self.enabled = False
+        f = self.f = np.zeros(tick.f_size(model.nv))  # tick.py's float state
+        i = self.i = np.zeros(tick.I_SIZE, dtype=np.int64)  # and its integer state
+        # the MjData arrays the tick reads and writes (tick.py's MjArrays)
+        self.mj = (
+            data.qpos,
+            data.ctrl,
+            data.sensordata,
+            data.site_xpos,
+            data.site_xmat,
+            data.warning.number,
+            time_view(data),
+        )
+        i[tick.M_ADDRESS] = model._address
+        i[tick.D_ADDRESS] = data._address
+        i[tick.NV] = model.nv
+        i[tick.PORT_SITE] = layout.port_site
+        i[tick.FT_SITE] = layout.ft_site
+        i[tick.FT_ADR] = layout.ft_sensor_adr
+        i[tick.QPOS_ADR] = layout.qpos_adr[0]
 
         # Views into MjData, valid for the data's lifetime.
-        self._R_world_ft = data.site_xmat[layout.ft_site].reshape(3, 3)
         self._R_world_port_flat = data.site_xmat[layout.port_site]  # (9,)
         self.p_world_port = data.site_xpos[layout.port_site]  # (3,) [m], read only
         a = layout.ft_sensor_adr
         self._raw_wrench_ft = data.sensordata[a : a + 6]  # force [N], torque [N m], ft axes
-        self._qpos = data.qpos[layout.qpos_adr[0] : layout.qpos_adr[0] + 6]
         self._ctrl_pos = data.ctrl[layout.ctrl_pos]  # integrated-velocity servos [rad/s]
         self._ctrl_vel = data.ctrl[layout.ctrl_vel]  # velocity feed-forward servos [rad/s]
 
         # Attractor pose, base frame. Behaviors write these in place.
-        self.p_world_attractor = np.zeros(3)  # [m]
-        self.q_world_attractor = IDENTITY_QUAT.copy()  # [w x y z]
-        self.q_world_port = IDENTITY_QUAT.copy()
+        self.p_world_attractor = f[tick.P_WORLD_ATTRACTOR : tick.P_WORLD_ATTRACTOR + 3]  # [m]
+        self.q_world_attractor = f[tick.Q_WORLD_ATTRACTOR : tick.Q_WORLD_ATTRACTOR + 4]  # [w x y z]
+        self.q_world_attractor[0] = 1.0
+        self.q_world_port = f[tick.Q_WORLD_PORT : tick.Q_WORLD_PORT + 4]
+        self.q_world_port[0] = 1.0
 
-        # The tick's signal vector and its two linear maps.
-        self._v = np.zeros(13)
+        self._v = f[tick.V : tick.V + 13]
         self._v[12] = 1.0  # bias column: payload weight
         self._v_ft = self._v[0:6]  # low-passed raw sensor reading
-        self._v_meas = np.zeros(13)  # [raw reading, zeros, 1]: the unfiltered wrench
-        self._v_meas[12] = 1.0
-        self._v_meas_raw = self._v_meas[0:6]
-        self._ft_delta = np.zeros(6)
+        f[tick.V_MEAS + 12] = 1.0  # [raw reading, zeros, 1]: the unfiltered wrench
         self.ft_cutoff_hz = ft_cutoff_hz
-        self._ft_alpha = (
+        f[tick.FT_ALPHA] = (
             1.0 if ft_cutoff_hz is None else 1.0 - math.exp(-2 * math.pi * ft_cutoff_hz * control_dt)
         )
+        f[tick.CONTROL_DT] = control_dt
         self._v_stretch_pos = self._v[6:9]  # [m] base axes
         self._v_rot_err_port = self._v[9:12]  # [rad] port axes
-        self._wrench_map = np.zeros((6, 13))  # v -> w_world_env_on_port
-        self._qdot_map = np.zeros((6, 13))  # v -> qdot (Q)
-        self.w_world_env_on_port = np.zeros(6)  # [N, N m] base axes, torque about the port, raw
-        self._w_force = self.w_world_env_on_port[0:3]
-        self._w_torque = self.w_world_env_on_port[3:6]
-        self.force_norm = 0.0  # |f| [N] this tick
-        self.torque_norm = 0.0  # |tau| [N m] this tick
-
-        self._compensation = payload.compensation_matrix()  # (6, 9) ft axes
-        self._R_world_ft_flat = data.site_xmat[layout.ft_site]
-        self._blockdiag_rr = np.zeros((6, 6))
-        self._rr_m = np.zeros((6, 9))
-        self._g_ft = np.zeros(3)
-        self._twist_map = np.zeros((6, 13))
-        self._rot_block = np.zeros((3, 3))
-        self._R_gains = np.eye(3)  # gains' axes in base axes: I (base) or R_world_port (tool)
-        self._tmp33 = np.zeros((3, 3))
-        self._inv_b_pos = np.zeros((3, 3))  # B^-1 and B^-1 K blocks in base axes
-        self._inv_b_rot = np.zeros((3, 3))
-        self._kb_pos = np.zeros((3, 3))
-        self._kb_rot = np.zeros((3, 3))
-        self._jac_t = np.zeros((6, 6))
-        self._dls_inverse = np.zeros((6, 6))  # P, (6 joints, 6 twist components)
-        self._chol = np.zeros((6, 6))
-        self._chol_diag = self._chol.reshape(36)[::7]
-        self._gravity_world = np.array(model.opt.gravity)
-        self._jac = np.zeros((6, model.nv))  # rows: linear then angular, world axes
-        self._jacp = self._jac[0:3]
-        self._jacr = self._jac[3:6]
-        self._inv_speed_limit = 1.0 / layout.joint_speed_limit
-        self._max_dqdot = JOINT_ACCEL_LIMIT * control_dt  # [rad/s] per tick
-        self._lower_soft = (layout.joint_range[:, 0] + 2 * JOINT_LIMIT_MARGIN_RAD).tolist()
-        self._upper_soft = (layout.joint_range[:, 1] - 2 * JOINT_LIMIT_MARGIN_RAD).tolist()
-        self._near_joint_limit = False
-        self._refresh_every_tick = False
-        self._ticks = 0
-        self._q_tmp = np.zeros(4)
-        self.manipulability = 0.0
-        self.speed_scale = 1.0  # last uniform scale applied for joint speed limits (<= 1)
-        self.limits: tuple[Limit, ...] = ()  # every limit that held the motion back this tick
-        # the joints slowed at an end of their range this tick: (index, "lower" | "upper")
-        self.joints_held: tuple[tuple[int, str], ...] = ()
+        self._wrench_map = f[tick.WRENCH_MAP : tick.WRENCH_MAP + 78].reshape(6, 13)  # v -> wrench
+        self.w_world_env_on_port = f[tick.W_WORLD : tick.W_WORLD + 6]  # [N, N m] base axes, raw
+        f[tick.COMPENSATION : tick.COMPENSATION + 54] = payload.compensation_matrix().ravel()  # (6, 9)
+        f[tick.GRAVITY_WORLD : tick.GRAVITY_WORLD + 3] = model.opt.gravity
+        f[tick.INV_SPEED_LIMIT : tick.INV_SPEED_LIMIT + 6] = 1.0 / layout.joint_speed_limit
+        f[tick.MAX_DQDOT : tick.MAX_DQDOT + 6] = JOINT_ACCEL_LIMIT * control_dt  # [rad/s] per tick
+        f[tick.JOINT_RANGE : tick.JOINT_RANGE + 12] = layout.joint_range.ravel()
+        f[tick.SPEED_LIMIT : tick.SPEED_LIMIT + 6] = layout.joint_speed_limit
+        f[tick.LOWER_SOFT : tick.LOWER_SOFT + 6] = layout.joint_range[:, 0] + 2 * tick.JOINT_LIMIT_MARGIN_RAD
+        f[tick.UPPER_SOFT : tick.UPPER_SOFT + 6] = layout.joint_range[:, 1] - 2 * tick.JOINT_LIMIT_MARGIN_RAD
+        self._R_gains = f[tick.R_GAINS : tick.R_GAINS + 9].reshape(3, 3)  # gains' axes in base axes
+        self._inv_damping = f[tick.INV_DAMPING : tick.INV_DAMPING + 6]  # (6,) gains' axes
+        self._k_over_b = f[tick.K_OVER_B : tick.K_OVER_B + 6]
+        f[tick.SPEED_SCALE] = 1.0
         self.set_gains(gains)
+
+    # ------------------------------------------------------------------ state, as numbers
+    @property
+    def enabled(self) -> bool:
+        return bool(self.i[tick.ENABLED])
+
+    @enabled.setter
+    def enabled(self, on: bool) -> None:
+        self.i[tick.ENABLED] = int(on)
+
+    @property
+    def force_norm(self) -> float:
+        """|f| [N] this tick."""
+        return float(self.f[tick.FORCE_NORM])
+
+    @property
+    def torque_norm(self) -> float:
+        """|tau| [N m] this tick."""
+        return float(self.f[tick.TORQUE_NORM])
+
+    @property
+    def manipulability(self) -> float:
+        return float(self.f[tick.MANIPULABILITY])
+
+    @property
+    def speed_scale(self) -> float:
+        """The last uniform scale applied for joint speed limits (<= 1)."""
+        return float(self.f[tick.SPEED_SCALE])
+
+    @property
+    def limits(self) -> tuple[Limit, ...]:
+        """Every limit that held the motion back this tick."""
+        bits = int(self.i[tick.LIMITS])
+        return tuple(limit for bit, limit in _LIMIT_BITS if bits & bit)
+
+    @property
+    def joints_held(self) -> tuple[tuple[int, str], ...]:
+        """The joints slowed at an end of their range this tick: (index, "lower" | "upper")."""
+        held = self.i[tick.JOINTS_HELD : tick.JOINTS_HELD + 6]
+        return tuple((j, JOINT_ENDS[int(end)]) for j, end in enumerate(held) if end != tick.JOINT_FREE)
 
     @property
     def limited(self) -> Limit | None:
         """The first limit that held the motion back this tick (telemetry's `limited`), if any."""
-        return self.limits[0] if self.limits else None
+        limits = self.limits
+        return limits[0] if limits else None
+
+    # ------------------------------------------------------------------ the behavior's run
+    def start_motion(
+        self,
+        kind: int,
+        t0: float,
+        duration: float,
+        watchdog: float = math.inf,
+        force_threshold: float = math.inf,
+        torque_threshold: float = math.inf,
+    ) -> None:
+        """Begin a behavior's motion block (tick.py): its kind, start time [s], duration and
+        watchdog [s], thresholds [N, N m], and the attractor where it is now as its origin."""
+        f = self.f
+        self.i[tick.MOTION_KIND] = kind
+        f[tick.T0] = t0
+        f[tick.DURATION] = duration
+        f[tick.WATCHDOG] = watchdog
+        f[tick.FORCE_THRESHOLD] = force_threshold
+        f[tick.TORQUE_THRESHOLD] = torque_threshold
+        f[tick.P_FROM : tick.P_FROM + 3] = self.p_world_attractor
+        f[tick.Q_FROM : tick.Q_FROM + 4] = self.q_world_attractor
+
+    def start_running(self, monitor_ticks_per_window: int) -> None:
+        """From the next tick the loop runs the behavior's motion and keeps its peaks and what
+        held it back; a task monitor's window every `monitor_ticks_per_window` ticks (0: none)."""
+        f, i = self.f, self.i
+        f[tick.PEAK_FORCE] = f[tick.PEAK_TORQUE] = 0.0
+        f[tick.HELD_S : tick.HELD_S + 3] = 0.0
+        i[tick.HELD_JOINT_END : tick.HELD_JOINT_END + 6] = tick.JOINT_FREE
+        i[tick.MONITOR_ACTIVE] = int(monitor_ticks_per_window > 0)
+        i[tick.MONITOR_TICKS_PER_WINDOW] = monitor_ticks_per_window
+        i[tick.MONITOR_TICKS] = i[tick.MONITOR_STARTED] = 0
+        f[tick.MONITOR_FORCE_SUM : tick.MONITOR_FORCE_SUM + 3] = 0.0
+        i[tick.RUNNING] = 1
+
+    def stop_running(self) -> None:
+        """The behavior ended: the attractor stays where it is."""
+        self.i[tick.RUNNING] = 0
+        self.i[tick.MOTION_KIND] = tick.MOTION_NONE
+
+    def held_seconds(self) -> dict[Limit, float]:
+        """[s] per limit that held the running behavior's motion back."""
+        seconds = self.f[tick.HELD_S : tick.HELD_S + 3]
+        return {limit: float(seconds[k]) for k, (_, limit) in enumerate(_LIMIT_BITS) if seconds[k] > 0.0}
+
+    def held_joint_ends(self) -> dict[int, str]:
+        """The joints held at an end of their range while the behavior ran, with that end."""
+        ends = self.i[tick.HELD_JOINT_END : tick.HELD_JOINT_END + 6]
+        return {j: JOINT_ENDS[int(end)] for j, end in enumerate(ends) if end != tick.JOINT_FREE}
 
     # ----------------------------------------------------------------------------- gains
     def change_gains(self, gains: Gains) -> None:
@@ -200,97 +292,25 @@ class AdmittanceController:
         """Take new stiffness/damping; the attractor stays, so the virtual wrench may step
         (a start or a twin's sync; a command changes gains with `change_gains`)."""
         self.gains = gains
-        self._inv_damping = 1.0 / gains.damping  # (6,) gains' axes
-        self._k_over_b = gains.stiffness * self._inv_damping
-        self._tool_frame_gains = gains.frame == "tool"
-        if not self._tool_frame_gains:
+        self._inv_damping[:] = 1.0 / gains.damping  # (6,) gains' axes
+        self._k_over_b[:] = gains.stiffness * self._inv_damping
+        self.i[tick.TOOL_FRAME_GAINS] = int(gains.frame == "tool")
+        if gains.frame != "tool":
             self._R_gains[:] = gains.fixed_axes_world()
-            self._rotate_gains()  # constant in base axes: once here, not per refresh
+            tick.rotate_gains(self.f)  # constant in base axes: once here, not per refresh
         self.refresh_kinematics()
 
     # ---------------------------------------------------------------------- kinematics
     def refresh_kinematics(self) -> None:
-        """Rebuild the wrench map and Q from the current configuration; slow checks.
-
-        Written with preallocated arrays: it runs at 1/KINEMATICS_TICKS of the control rate.
-        """
+        """Rebuild the wrench map and Q from the current configuration (tick.py)."""
         # (MuJoCo's own bad qpos/qvel/qacc checks reset the data; Simulation.step catches that.)
-        if not (math.isfinite(mujoco.mju_sum(self._v)) and math.isfinite(mujoco.mju_sum(self._qpos))):
+        if not tick.refresh_kinematics(self.mj, self.f, self.i):
             raise SimulationFault("non-finite wrench, stretch or joint position")
-        q = self._qpos.tolist()
-        self._near_joint_limit = any(
-            not lo < qi < hi for qi, lo, hi in zip(q, self._lower_soft, self._upper_soft, strict=True)
-        )
-
-        # Sensor map: w_world = blockdiag(R, R) (M_s raw + M_g R^T g); the weight term is the
-        # bias column (v[12] = 1).
-        R = self._R_world_ft
-        rr = self._blockdiag_rr
-        rr[0:3, 0:3] = R
-        rr[3:6, 3:6] = R
-        np.dot(rr, self._compensation, out=self._rr_m)
-        mujoco.mju_mulMatTVec3(self._g_ft, self._R_world_ft_flat, self._gravity_world)
-        wmap = self._wrench_map
-        wmap[:, 0:6] = self._rr_m[:, 0:6]
-        wmap[:, 12] = self._rr_m[:, 6:9] @ self._g_ft
-
-        # DLS inverse P = J^T (J J^T + lambda^2 I)^-1, lambda from the manipulability
-        # sqrt(det(J J^T)) = prod(diag(chol(J J^T))). Far from singularities lambda is only the
-        # floor, and the factor of J J^T serves as is.
-        mujoco.mj_jacSite(self.model, self.data, self._jacp, self._jacr, self.layout.port_site)
-        J = self._jac if self._jac.shape[1] == 6 else np.ascontiguousarray(self._jac[:, 0:6])
-        chol = self._chol
-        np.dot(J, J.T, out=chol)
-        mujoco.mju_cholFactor(chol, LAMBDA_FLOOR_SQ)
-        self.manipulability = math.prod(self._chol_diag.tolist())
-        ratio = self.manipulability / MANIPULABILITY_THRESHOLD
-        # Near a singularity, or moving fast, J changes quickly: rebuild Q every tick then.
-        self._refresh_every_tick = (
-            ratio < FAST_REFRESH_MANIPULABILITY_RATIO or mujoco.mju_norm(self._ctrl_pos) > FAST_REFRESH_SPEED
-        )
-        if ratio < 1.0:
-            np.dot(J, J.T, out=chol)
-            self._chol_diag += LAMBDA_MAX**2 * (1.0 - ratio * ratio)
-            mujoco.mju_cholFactor(chol, LAMBDA_FLOOR_SQ)
-        np.copyto(self._jac_t, J.T)
-        P = self._dls_inverse  # row i = (J J^T + lambda^2 I)^-1 (row i of J^T), as J J^T is symmetric
-        for i in range(6):
-            mujoco.mju_cholSolve(P[i], chol, self._jac_t[i])
-
-        # Q = P [B^-1 wmap + B^-1 K stretch columns]; the rotation error arrives in port axes.
-        R_port = self._R_world_port_flat.reshape(3, 3)
-        if self._tool_frame_gains:
-            self._R_gains[:] = R_port
-            self._rotate_gains()
-        tmap = self._twist_map
-        np.dot(self._inv_b_pos, wmap[0:3], out=tmap[0:3])  # stretch columns of wmap are 0
-        np.dot(self._inv_b_rot, wmap[3:6], out=tmap[3:6])
-        tmap[0:3, 6:9] = self._kb_pos
-        np.dot(self._kb_rot, R_port, out=self._rot_block)
-        tmap[3:6, 9:12] = self._rot_block
-        np.dot(P, tmap, out=self._qdot_map)
-
-    def _rotate_gains(self) -> None:
-        """B^-1 and B^-1 K blocks in base axes from the diagonals in the gains' axes."""
-        self._to_base(self._inv_damping[0:3], self._inv_b_pos)
-        self._to_base(self._inv_damping[3:6], self._inv_b_rot)
-        self._to_base(self._k_over_b[0:3], self._kb_pos)
-        self._to_base(self._k_over_b[3:6], self._kb_rot)
-
-    def _to_base(self, diagonal: np.ndarray, out: np.ndarray) -> None:
-        """out = R diag(diagonal) R^T with R the gains' current axes (3, 3)."""
-        _rotated_diagonal(self._R_gains, diagonal, out, self._tmp33)
 
     # ------------------------------------------------------------------------ measuring
     def measure(self) -> None:
         """Raw compensated wrench and its magnitudes; the low-passed reading for control."""
-        raw = self._raw_wrench_ft
-        self._v_meas_raw[:] = raw
-        self._wrench_map.dot(self._v_meas, out=self.w_world_env_on_port)
-        self.force_norm = mujoco.mju_norm3(self._w_force)
-        self.torque_norm = mujoco.mju_norm3(self._w_torque)
-        mujoco.mju_sub(self._ft_delta, raw, self._v_ft)
-        mujoco.mju_addToScl(self._v_ft, self._ft_delta, self._ft_alpha)
+        tick.measure(self.mj, self.f, self.i)
 
     def control_wrench(self) -> np.ndarray:
         """(6,) the low-passed compensated wrench the admittance law uses [N, N m], base axes."""
@@ -298,9 +318,7 @@ class AdmittanceController:
 
     def measure_stretch(self) -> None:
         """Position stretch (base axes) and rotation error (port axes) into the signal vector."""
-        mujoco.mju_sub3(self._v_stretch_pos, self.p_world_attractor, self.p_world_port)
-        mujoco.mju_mat2Quat(self.q_world_port, self._R_world_port_flat)
-        mujoco.mju_subQuat(self._v_rot_err_port, self.q_world_attractor, self.q_world_port)
+        tick.measure_stretch(self.mj, self.f, self.i)
 
     def stretch_world(self) -> np.ndarray:
         """(6,) stretch in base axes [m, rad] as of the last measurement."""
@@ -316,11 +334,10 @@ class AdmittanceController:
 
     def _diag_world(self, diagonal: np.ndarray) -> np.ndarray:
         """(6, 6) blockdiag(R diag R^T) of a (6,) diagonal in the gains' axes."""
-        R, tmp, block = self.gains_rotation(), np.zeros((3, 3)), np.zeros((3, 3))
+        R = self.gains_rotation()
         out = np.zeros((6, 6))
         for axes in (slice(0, 3), slice(3, 6)):
-            _rotated_diagonal(R, diagonal[axes], block, tmp)  # np.dot needs a contiguous out
-            out[axes, axes] = block
+            out[axes, axes] = _rotated_diagonal(R, diagonal[axes])
         return out
 
     def stiffness_world(self) -> np.ndarray:
@@ -340,61 +357,8 @@ class AdmittanceController:
     # ---------------------------------------------------------------------------- ticks
     def command(self) -> None:
         """Stretch to the (possibly just moved) attractor, then qdot = Q v to the servos."""
-        self._ticks += 1
-        if self._refresh_every_tick or self._ticks % KINEMATICS_TICKS == 0:
-            self.refresh_kinematics()
-        self.measure_stretch()
-        if not self.enabled:
-            return
-        qdot = self._ctrl_pos
-        self._qdot_map.dot(self._v, out=qdot)
-        # Slow commands far from limits and singularities need no limiting (the common case).
-        if mujoco.mju_norm(qdot) > FAST_REFRESH_SPEED or self._refresh_every_tick or self._near_joint_limit:
-            self.limits = self._limit_joint_motion(qdot, previous=self._ctrl_vel)
-        else:
-            self.speed_scale = 1.0
-            self.limits, self.joints_held = (), ()
-        self._ctrl_vel[:] = qdot
-
-    def _limit_joint_motion(self, qdot: np.ndarray, previous: np.ndarray) -> tuple[Limit, ...]:
-        """Hold qdot to the drives' limits in place; every limit that held the motion back."""
-        # Speed: one scale for all joints keeps the Cartesian direction.
-        peak = float(np.max(np.abs(qdot) * self._inv_speed_limit))
-        self.speed_scale = 1.0 if peak <= 1.0 else 1.0 / peak
-        if peak > 1.0:
-            qdot *= self.speed_scale
-        # Acceleration: as a drive would, so the DLS taking over near a singularity (or a
-        # sudden attractor jump) decelerates the arm over tens of ms instead of a few.
-        np.clip(qdot, previous - self._max_dqdot, previous + self._max_dqdot, out=qdot)
-        self.joints_held = self._taper_at_joint_limits(qdot) if self._near_joint_limit else ()
-        return (
-            (Limit.SINGULARITY,) * (self.manipulability < MANIPULABILITY_THRESHOLD)
-            + (Limit.JOINT_LIMIT,) * bool(self.joints_held)
-            + (Limit.SPEED,) * (peak > 1.0)
-        )
-
-    def _taper_at_joint_limits(self, qdot: np.ndarray) -> tuple[tuple[int, str], ...]:
-        """Slow each joint toward its limit linearly over the last margin: it stops, never hits.
-
-        Returns the joints slowed, each with the end it was slowed toward.
-        """
-        q = self._qpos
-        lo = self.layout.joint_range[:, 0]
-        hi = self.layout.joint_range[:, 1]
-        vmax = self.layout.joint_speed_limit
-        slowed: list[tuple[int, str]] = []
-        for i in range(6):
-            if qdot[i] > 0.0:
-                cap = vmax[i] * max(0.0, min(1.0, (hi[i] - q[i]) / JOINT_LIMIT_MARGIN_RAD))
-                if qdot[i] > cap:
-                    qdot[i] = cap
-                    slowed.append((i, "upper"))
-            elif qdot[i] < 0.0:
-                cap = vmax[i] * max(0.0, min(1.0, (q[i] - lo[i]) / JOINT_LIMIT_MARGIN_RAD))
-                if qdot[i] < -cap:
-                    qdot[i] = -cap
-                    slowed.append((i, "lower"))
-        return tuple(slowed)
+        if not tick.command(self.mj, self.f, self.i):
+            raise SimulationFault("non-finite wrench, stretch or joint position")
 
     @property
     def qdot_cmd(self) -> np.ndarray:
@@ -432,6 +396,5 @@ class AdmittanceController:
 
     def place_attractor_from_port(self, stretch_world: np.ndarray) -> None:
         """Attractor = port (+) stretch: translation and base-axes rotation vector (6,)."""
-        mujoco.mju_mat2Quat(self.q_world_port, self._R_world_port_flat)
-        mujoco.mju_add3(self.p_world_attractor, self.p_world_port, stretch_world[0:3])
-        rotate_world(self.q_world_attractor, self.q_world_port, stretch_world[3:6], 1.0, self._q_tmp)
+        self.f[tick.STRETCH_TMP : tick.STRETCH_TMP + 6] = stretch_world
+        tick.place_attractor_from_port(self.mj, self.f, self.i, tick.STRETCH_TMP)

@@ -3,11 +3,14 @@
 Pacing is not here: `step()` advances one control period as fast as the CPU allows; the
 server paces it to real time, sweeps do not.
 
-Per control period (control_dt = n_substeps * physics_dt):
-    controller.measure       compensated wrench from the sensor
-    behavior.update          moves the attractor, may end with an exit condition
-    controller.command       eq. 5 + DLS -> joint-velocity servo commands
+Per control period (control_dt = n_substeps * physics_dt), compiled (tick.py):
+    measure                  compensated wrench from the sensor
+    move_attractor           the behavior moves the attractor, may end with an exit condition
+    command                  eq. 5 + DLS -> joint-velocity servo commands
     mj_step x n_substeps     physics with those commands held
+
+`advance` runs many periods in one call and comes back to Python only where Python decides:
+a behavior's end, a task-monitor window, a fault, or a scene's mechanism after every tick.
 
 Kinematics and sensors in MjData are those mj_step computed at the start of its last step,
 so the controller sees the robot 1 ms late, as it would a real sensor and servo bus.
@@ -18,13 +21,14 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from robot_sim import tick
 from robot_sim.arm import ArmLayout
 from robot_sim.behaviors.base import Behavior, BehaviorReport, ExitCondition, Pose
 from robot_sim.behaviors.gripper import Gripper
 from robot_sim.controller import FT_CUTOFF_HZ, AdmittanceController
-from robot_sim.errors import RobotSimError, SimulationFault
+from robot_sim.errors import RobotSimError
 from robot_sim.gains import Gains
-from robot_sim.held_back import HeldBack
+from robot_sim.held_back import held_back_detail
 from robot_sim.model import PHYSICS_TIMESTEP_S, build_model
 from robot_sim.payload import Payload
 from robot_sim.presets import default_presets
@@ -172,9 +176,6 @@ class Simulation:
         self.controller.enable()
         self.behavior: Behavior | None = None
         self._behavior_started_at = 0.0
-        self._peak_force = 0.0
-        self._peak_torque = 0.0
-        self._held_back = HeldBack()  # what held the port back while the behavior ran
         self._behavior_detail = ""  # what the running behavior's report will say (a grasp)
         self.monitor: FrictionMonitor | None = None  # the last behavior's task monitor, if it had one
 
@@ -194,6 +195,7 @@ class Simulation:
         space the difference dies out with the admittance's time constant. Any behavior ends
         (nothing is reported: the twin re-issues what should run)."""
         self.behavior = None
+        self.controller.i[tick.RUNNING] = 0
         data, layout, ctl = self.data, self.layout, self.controller
         data.qpos[layout.qpos_adr] = joint_positions
         data.qvel[:] = 0.0
@@ -209,43 +211,54 @@ class Simulation:
     # -------------------------------------------------------------------------- steps
     def step(self) -> BehaviorReport | None:
         """Advance one control period; returns the report if a behavior ended in it."""
-        # Runs at 1 kHz: locals and few attribute look-ups on purpose.
+        return self.advance(1)[0]
+
+    def advance(self, max_ticks: int) -> tuple[BehaviorReport | None, int]:
+        """Run up to `max_ticks` control periods, stopping after one in which a behavior ended
+        (or a fault reloaded the scene); (that report or None, the periods run)."""
         ctl = self.controller
-        data = self.data
+        mj, f, i, n_substeps = ctl.mj, ctl.f, ctl.i, self.n_substeps
+        per_call = max_ticks if self.mechanism is None else 1  # a mechanism acts after every tick
+        done = 0
+        while done < max_ticks:
+            ran = tick.run_ticks(mj, f, i, min(per_call, max_ticks - done), n_substeps)
+            report = None
+            stop = int(i[tick.STOP])
+            if i[tick.MID_TICK]:
+                report = self._decide(stop)
+                stop = tick.finish_tick(mj, f, i, n_substeps)
+                ran += 1
+            done += ran
+            if self.mechanism is not None and stop != tick.Stop.NON_FINITE:
+                self.mechanism(self.data)
+            if stop == tick.Stop.NON_FINITE:
+                return self._recover_from_fault("non-finite wrench, stretch or joint position"), done
+            if stop == tick.Stop.UNSTABLE:
+                message = f"MuJoCo found the simulation unstable: {_warnings(self.data)}"
+                return self._recover_from_fault(message), done
+            if report is not None:
+                return report, done
+        return None, done
+
+    def _decide(self, stop: int) -> BehaviorReport | None:
+        """Python's part of a tick the loop stopped in before the servos: a behavior's end, or a
+        task-monitor window to judge."""
         behavior = self.behavior
-        report = None
-        now = data.time
-        try:
-            ctl.measure()
-            if behavior is not None:
-                if ctl.force_norm > self._peak_force:
-                    self._peak_force = ctl.force_norm
-                if ctl.torque_norm > self._peak_torque:
-                    self._peak_torque = ctl.torque_norm
-                if ctl.limits:
-                    self._held_back.add(ctl, self.control_dt)
-                exit_condition = behavior.update(ctl, now)  # its own exits first: a breach before all
-                monitor = self.monitor
-                if exit_condition is None and monitor is not None and monitor.update(ctl):
-                    report = self._finish(ExitCondition.ANOMALY, monitor.detail())
-                elif exit_condition is not None:
-                    report = self._finish(exit_condition)
-            ctl.command()
-            mujoco.mj_step(self.model, data, self.n_substeps)
-            if self.mechanism is not None:
-                self.mechanism(data)
-            if data.time <= now:
-                # MuJoCo resets the data (time included) when qpos/qvel/qacc go bad.
-                raise SimulationFault(f"MuJoCo found the simulation unstable: {_warnings(data)}")
-        except SimulationFault as fault:
-            return self._recover_from_fault(str(fault))
-        return report
+        assert behavior is not None
+        monitor = self.monitor
+        if stop == tick.Stop.MONITOR_WINDOW:
+            assert monitor is not None
+            anomaly = monitor.update(self.controller)
+            return self._finish(ExitCondition.ANOMALY, monitor.detail()) if anomaly else None
+        return self._finish(behavior.exit_for(self.controller, stop))
 
     def run(self, seconds: float) -> list[BehaviorReport]:
         """Step for `seconds` of sim time; the reports of behaviors that ended meanwhile."""
         reports = []
-        for _ in range(round(seconds / self.control_dt)):
-            report = self.step()
+        left = round(seconds / self.control_dt)
+        while left > 0:
+            report, ran = self.advance(left)
+            left -= ran
             if report is not None:
                 reports.append(report)
         return reports
@@ -266,13 +279,12 @@ class Simulation:
             self.controller.enable()  # bumpless from position hold
         self.behavior = behavior
         self._behavior_started_at = self.time
-        self._peak_force = 0.0
-        self._peak_torque = 0.0
-        self._held_back = HeldBack()
         self._behavior_detail = ""
         spec = behavior.monitor_spec()
+        ctl = self.controller
         self.monitor = FrictionMonitor(spec, self.control_dt) if spec is not None else None
-        behavior.start(self.controller, self.time, self.frames)
+        behavior.start(ctl, self.time, self.frames)
+        ctl.start_running(self.monitor.ticks_per_window if self.monitor is not None else 0)
         if isinstance(behavior, Gripper):
             self._behavior_detail = self._actuate_gripper(behavior.params.action)
         return preempted
@@ -298,10 +310,12 @@ class Simulation:
     def run_behavior(self, behavior: Behavior, max_seconds: float = 700.0) -> BehaviorReport:
         """Start `behavior` and step until it ends (its watchdog ends it in bounded time)."""
         self.start(behavior)
-        for _ in range(round(max_seconds / self.control_dt)):
-            report = self.step()
+        left = round(max_seconds / self.control_dt)
+        while left > 0:
+            report, ran = self.advance(left)
             if report is not None:
                 return report
+            left -= ran
         report = self.abort(f"still running after {max_seconds} s")
         assert report is not None
         return report
@@ -313,20 +327,21 @@ class Simulation:
             detail = self._behavior_detail
         if not detail:
             short = self.behavior.shortfall(ctl) if exit_condition is not ExitCondition.GOAL_REACHED else ""
-            held_back = self._held_back.detail(self.layout.joint_range)
+            held_back = held_back_detail(ctl.held_seconds(), ctl.held_joint_ends(), self.layout.joint_range)
             detail = "; ".join(part for part in (short, held_back) if part)
         report = BehaviorReport(
             behavior=self.behavior.kind,
             exit=exit_condition,
             started_at=self._behavior_started_at,
             ended_at=self.time,
-            peak_force=self._peak_force,
-            peak_torque=self._peak_torque,
+            peak_force=float(ctl.f[tick.PEAK_FORCE]),
+            peak_torque=float(ctl.f[tick.PEAK_TORQUE]),
             final_wrench=tuple(float(v) for v in ctl.w_world_env_on_port),
             final_port=_pose(ctl.p_world_port, ctl.q_world_port),
             detail=detail,
         )
         self.behavior = None  # the attractor stays where the behavior left it
+        ctl.stop_running()
         self.last_report = report
         return report
 

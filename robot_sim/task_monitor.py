@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from robot_sim import tick
 from robot_sim.controller import AdmittanceController
 from robot_sim.params import MonitorSpec
 from robot_sim.rls import VectorForgettingRls
@@ -49,12 +50,9 @@ class FrictionMonitor:
     def __init__(self, spec: MonitorSpec, control_dt_s: float) -> None:
         self.spec = spec
         self._normal = np.asarray(spec.normal, dtype=float)
-        self._ticks_per_window = max(1, round(WINDOW_S / control_dt_s))
-        self._window_s = self._ticks_per_window * control_dt_s
+        self.ticks_per_window = max(1, round(WINDOW_S / control_dt_s))
+        self._window_s = self.ticks_per_window * control_dt_s
         self.rls = VectorForgettingRls(np.zeros(2), VARIANCE0, np.asarray(spec.forgetting), MAX_VARIANCE)
-        self._force_sum = np.zeros(3)
-        self._ticks = 0
-        self._p_start: np.ndarray | None = None
         self.learned_s = 0.0  # [s] of sliding in contact learned from
         self.outside_s = 0.0  # [s] outside the band, in a row
         self.last: Sample | None = None
@@ -73,18 +71,16 @@ class FrictionMonitor:
         return float(self.rls.theta[1])
 
     def update(self, ctl: AdmittanceController) -> bool:
-        """(every control tick) True when this tick's sample is an anomaly."""
-        if self._p_start is None:
-            self._p_start = ctl.p_world_port.copy()
-        self._force_sum += ctl.w_world_env_on_port[0:3]
-        self._ticks += 1
-        if self._ticks < self._ticks_per_window:
-            return False
-        force = self._force_sum / self._ticks
-        travel = ctl.p_world_port - self._p_start
-        self._force_sum[:] = 0.0
-        self._ticks = 0
-        self._p_start = ctl.p_world_port.copy()
+        """(every full window: the compiled loop sums the force over its ticks, tick.py) True
+        when this window's sample is an anomaly. Starts the next window."""
+        f, i = ctl.f, ctl.i
+        force_sum = f[tick.MONITOR_FORCE_SUM : tick.MONITOR_FORCE_SUM + 3]
+        p_start = f[tick.MONITOR_P_START : tick.MONITOR_P_START + 3]
+        force = force_sum / i[tick.MONITOR_TICKS]
+        travel = ctl.p_world_port - p_start
+        force_sum[:] = 0.0
+        i[tick.MONITOR_TICKS] = 0
+        p_start[:] = ctl.p_world_port
         normal_n = float(force @ self._normal)
         tangential = force - normal_n * self._normal
         along = travel - float(travel @ self._normal) * self._normal

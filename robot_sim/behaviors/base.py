@@ -14,6 +14,7 @@ from enum import StrEnum
 
 import numpy as np
 
+from robot_sim import tick
 from robot_sim.controller import AdmittanceController
 from robot_sim.params import MonitorSpec, OnBreach
 from robot_sim.pose_math import rotvec_from_to
@@ -83,11 +84,6 @@ class BehaviorReport:
         return self.ended_at - self.started_at
 
 
-def wrench_breached(ctl: AdmittanceController, force_threshold: float, torque_threshold: float) -> bool:
-    """|f| or |tau| on the port over its threshold this tick (checked before success: safety first)."""
-    return ctl.force_norm > force_threshold or ctl.torque_norm > torque_threshold
-
-
 def end_breach(
     ctl: AdmittanceController, on_breach: OnBreach, force_threshold: float, torque_threshold: float
 ) -> ExitCondition:
@@ -108,18 +104,31 @@ def end_breach(
     return ExitCondition.WRENCH_BREACH
 
 
+# What the compiled loop's stop means, unless the behavior says otherwise (`exit_for`).
+_EXITS: dict[int, ExitCondition] = {
+    tick.Stop.GOAL_REACHED: ExitCondition.GOAL_REACHED,
+    tick.Stop.WRENCH_BREACH: ExitCondition.WRENCH_BREACH,
+    tick.Stop.TIMEOUT: ExitCondition.TIMEOUT,
+    tick.Stop.COMPLETED: ExitCondition.COMPLETED,
+}
+
+
 class Behavior(ABC):
-    """One compliant behavior; `update` runs every control tick after the port is measured."""
+    """One compliant behavior. Its start sets up the attractor's motion in the controller's
+    motion block; every control tick after that, the compiled loop (tick.py, `move_attractor`)
+    moves the attractor and checks the exits, and `exit_for` says what its stop means."""
 
     kind: str
 
     @abstractmethod
     def start(self, ctl: AdmittanceController, t: float, frames: TaskFrames) -> None:
-        """Take the port and attractor poses at start and set up the attractor's motion."""
+        """Take the port and attractor poses at start and set up the attractor's motion
+        (`ctl.start_motion` and the fields tick.py's motion block names)."""
 
-    @abstractmethod
-    def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:
-        """Move the attractor for time t [s]; return an exit condition to end."""
+    def exit_for(self, ctl: AdmittanceController, stop: int) -> ExitCondition:
+        """The exit condition of the loop's `stop` (a tick.Stop code); acts on it first where the
+        behavior must (a breach's `on_breach`)."""
+        return _EXITS[stop]
 
     def monitor_spec(self) -> MonitorSpec | None:
         """The force task monitor it asked for (task_monitor.py), if any."""

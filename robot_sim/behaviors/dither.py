@@ -14,23 +14,18 @@ The wiggle's amplitude ramps in over its first cycle, so the attractor never jum
 wobble of the axis was tried as a third mode and dropped: it recovered 1 of 12 sleeve jams
 where the paper's twist recovers 12 of 12; see robot_sim/policies/sleeve_on_peg.py.)
 Exits: `wrench_breach` (thresholds, then `on_breach`), `goal_reached` when the port has moved
-`progress` (default: the travel) from where it was at start (to within TRAVEL_TOLERANCE_M): a
+`progress` (default: the travel) from where it was at start (to within tick.TRAVEL_TOLERANCE_M): a
 push that should end once a jam frees advances the attractor by `travel` but stops on a shorter
 `progress`; `timeout` at the watchdog.
 """
 
-import math
-
-import mujoco
 import numpy as np
 
-from robot_sim.behaviors.base import Behavior, ExitCondition, end_breach, wrench_breached
+from robot_sim import tick
+from robot_sim.behaviors.base import Behavior, ExitCondition, end_breach
 from robot_sim.controller import AdmittanceController
 from robot_sim.params import DitherParams, MonitorSpec
-from robot_sim.pose_math import rotate_world
 from robot_sim.task_frames import TaskFrames
-
-TRAVEL_TOLERANCE_M = 0.001
 
 
 def perpendicular_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -47,54 +42,37 @@ class Dither(Behavior):
     def __init__(self, params: DitherParams) -> None:
         self.params = params
         self.axis_world = np.zeros(3)
-        self._e1 = np.zeros(3)
-        self._e2 = np.zeros(3)
-        self._p_world_port_start = np.zeros(3)
-        self._p_world_from = np.zeros(3)  # attractor at start: the centre's origin
-        self._q_world_from = np.zeros(4)
-        self._sign = 1.0 if params.direction == "push" else -1.0
-        self._ends_at_m = params.travel if params.progress is None else params.progress
-        self._wiggle = np.zeros(3)
-        self._q_tmp = np.zeros(4)
-        self._t0 = 0.0
 
     def monitor_spec(self) -> MonitorSpec | None:
         return self.params.monitor
 
     def start(self, ctl: AdmittanceController, t: float, frames: TaskFrames) -> None:
-        self._t0 = t
-        self._p_world_port_start[:] = ctl.p_world_port
-        self._p_world_from[:] = ctl.p_world_attractor
-        self._q_world_from[:] = ctl.q_world_attractor
-        axis_in_frame = np.asarray(self.params.axis, dtype=float)  # unit length (params.py)
-        self.axis_world[:] = frames.axes_world(self.params.frame, ctl.q_world_port) @ axis_in_frame
-        self._e1[:], self._e2[:] = perpendicular_basis(self.axis_world)
+        p = self.params
+        axis_in_frame = np.asarray(p.axis, dtype=float)  # unit length (params.py)
+        self.axis_world[:] = frames.axes_world(p.frame, ctl.q_world_port) @ axis_in_frame
+        e1, e2 = perpendicular_basis(self.axis_world)
+        assert p.watchdog is not None
+        ctl.start_motion(tick.MOTION_DITHER, t, p.duration, p.watchdog, p.force_threshold, p.torque_threshold)
+        f = ctl.f
+        f[tick.P_PORT_START : tick.P_PORT_START + 3] = ctl.p_world_port
+        f[tick.AXIS_WORLD : tick.AXIS_WORLD + 3] = self.axis_world
+        f[tick.E1 : tick.E1 + 3] = e1
+        f[tick.E2 : tick.E2 + 3] = e2
+        f[tick.SIGN] = 1.0 if p.direction == "push" else -1.0
+        f[tick.ENDS_AT] = p.travel if p.progress is None else p.progress  # [m]
+        f[tick.TRAVEL] = p.travel
+        f[tick.AMPLITUDE] = p.amplitude
+        f[tick.FREQUENCY] = p.frequency
+        torsional = p.mode == "torsional"
+        ctl.i[tick.DITHER_MODE] = tick.DITHER_TORSIONAL if torsional else tick.DITHER_TRANSLATIONAL
 
     def progress(self, ctl: AdmittanceController) -> float:
-        """How far the port has gone along the axis in the commanded direction [m]."""
-        moved = ctl.p_world_port - self._p_world_port_start
-        return self._sign * float(moved @ self.axis_world)
+        """How far the port has gone along the axis in the commanded direction [m] (while it
+        runs, or at its end before another behavior starts)."""
+        return float(tick.dither_progress(ctl.mj, ctl.f, ctl.i))
 
-    def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:
-        p = self.params
-        if wrench_breached(ctl, p.force_threshold, p.torque_threshold):
+    def exit_for(self, ctl: AdmittanceController, stop: int) -> ExitCondition:
+        if stop == tick.Stop.WRENCH_BREACH:
+            p = self.params
             return end_breach(ctl, p.on_breach, p.force_threshold, p.torque_threshold)
-        if self.progress(ctl) >= self._ends_at_m - TRAVEL_TOLERANCE_M:
-            return ExitCondition.GOAL_REACHED
-        elapsed = t - self._t0
-        assert p.watchdog is not None
-        if elapsed >= p.watchdog:
-            return ExitCondition.TIMEOUT
-        advance = self._sign * p.travel * min(1.0, elapsed / p.duration)
-        amplitude = p.amplitude * min(1.0, elapsed * p.frequency)
-        phase = 2.0 * math.pi * p.frequency * elapsed
-        mujoco.mju_addScl3(ctl.p_world_attractor, self._p_world_from, self.axis_world, advance)
-        if p.mode == "torsional":
-            mujoco.mju_scl3(self._wiggle, self.axis_world, amplitude * math.sin(phase))
-            rotate_world(ctl.q_world_attractor, self._q_world_from, self._wiggle, 1.0, self._q_tmp)
-        else:
-            mujoco.mju_scl3(self._wiggle, self._e1, amplitude * math.cos(phase))
-            mujoco.mju_addToScl3(self._wiggle, self._e2, amplitude * math.sin(phase))
-            mujoco.mju_addTo3(ctl.p_world_attractor, self._wiggle)
-            ctl.q_world_attractor[:] = self._q_world_from
-        return None
+        return super().exit_for(ctl, stop)

@@ -3,7 +3,8 @@ move; what closing catches is the scene's business (robot_sim/scenes/grasp.py), 
 simulation when the command starts. It ends `completed` after its duration; the report's
 detail says what the jaws hold."""
 
-from robot_sim.behaviors.base import Behavior, ExitCondition
+from robot_sim import tick
+from robot_sim.behaviors.base import Behavior
 from robot_sim.controller import AdmittanceController
 from robot_sim.params import GripperParams
 from robot_sim.task_frames import TaskFrames
@@ -14,10 +15,7 @@ class Gripper(Behavior):
 
     def __init__(self, params: GripperParams) -> None:
         self.params = params
-        self._t0 = 0.0
 
     def start(self, ctl: AdmittanceController, t: float, frames: TaskFrames) -> None:
-        self._t0 = t  # the attractor stays where it is: a held force survives the grasp
-
-    def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:
-        return ExitCondition.COMPLETED if t - self._t0 >= self.params.duration else None
+        # the attractor stays where it is: a held force survives the grasp; `completed` at the end
+        ctl.start_motion(tick.MOTION_GRIPPER, t, self.params.duration)

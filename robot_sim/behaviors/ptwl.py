@@ -19,7 +19,8 @@ import math
 import mujoco
 import numpy as np
 
-from robot_sim.behaviors.base import Behavior, ExitCondition, Pose, PoseArrays, end_breach, wrench_breached
+from robot_sim import tick
+from robot_sim.behaviors.base import Behavior, ExitCondition, Pose, PoseArrays, end_breach
 from robot_sim.controller import AdmittanceController
 from robot_sim.params import MonitorSpec, PtwlParams
 from robot_sim.pose_math import angle_between, rotate_world, rotvec_from_to
@@ -77,15 +78,7 @@ class Ptwl(Behavior):
         self.params = params
         self.p_world_goal = np.zeros(3)
         self.q_world_goal = np.zeros(4)
-        self._p_world_from = np.zeros(3)  # attractor at start
-        self._q_world_from = np.zeros(4)
-        self._dp_world = np.zeros(3)  # [m] attractor travel, base axes
-        self._rotvec_world = np.zeros(3)  # [rad] attractor rotation, base axes
-        self._q_tmp = np.zeros(4)
         self._v_tmp = np.zeros(3)
-        self._t0 = 0.0
-        self._rotates = False
-        self._arrived = False
 
     def monitor_spec(self) -> MonitorSpec | None:
         return self.params.monitor
@@ -93,15 +86,20 @@ class Ptwl(Behavior):
     def start(self, ctl: AdmittanceController, t: float, frames: TaskFrames) -> None:
         p = self.params
         ctl.change_gains(frames.resolve_gains(p.gains(ctl.gains)))
-        self._t0 = t
         goal = ptwl_goal(ctl.p_world_port, ctl.q_world_port, p, frames)
         self.p_world_goal[:], self.q_world_goal[:] = goal
-        self._p_world_from[:] = ctl.p_world_attractor
-        self._q_world_from[:] = ctl.q_world_attractor
-        self._dp_world[:] = self.p_world_goal - self._p_world_from
-        self._rotvec_world[:] = rotvec_from_to(self._q_world_from, self.q_world_goal)
-        self._rotates = bool(np.any(self._rotvec_world != 0.0))
-        self._arrived = False
+        assert p.watchdog is not None
+        ctl.start_motion(tick.MOTION_PTWL, t, p.duration, p.watchdog, p.force_threshold, p.torque_threshold)
+        f = ctl.f
+        f[tick.POSITION_TOLERANCE] = p.position_tolerance
+        f[tick.ORIENTATION_TOLERANCE] = p.orientation_tolerance
+        f[tick.P_GOAL : tick.P_GOAL + 3] = self.p_world_goal
+        f[tick.Q_GOAL : tick.Q_GOAL + 4] = self.q_world_goal
+        f[tick.DP_WORLD : tick.DP_WORLD + 3] = self.p_world_goal - ctl.p_world_attractor  # [m]
+        rotvec_world = rotvec_from_to(ctl.q_world_attractor, self.q_world_goal)  # [rad]
+        f[tick.ROTVEC_WORLD : tick.ROTVEC_WORLD + 3] = rotvec_world
+        ctl.i[tick.ROTATES] = int(np.any(rotvec_world != 0.0))
+        ctl.i[tick.ARRIVED] = 0
 
     def goal_pose(self) -> Pose:
         return Pose.of(self.p_world_goal, self.q_world_goal)
@@ -111,26 +109,8 @@ class Ptwl(Behavior):
         angle_rad = angle_between(self.q_world_goal, ctl.q_world_port, self._v_tmp)
         return f"port {1000.0 * distance_m:.1f} mm and {math.degrees(angle_rad):.1f} deg from its goal"
 
-    def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:
-        p = self.params
-        if wrench_breached(ctl, p.force_threshold, p.torque_threshold):
+    def exit_for(self, ctl: AdmittanceController, stop: int) -> ExitCondition:
+        if stop == tick.Stop.WRENCH_BREACH:
+            p = self.params
             return end_breach(ctl, p.on_breach, p.force_threshold, p.torque_threshold)
-        if (
-            mujoco.mju_dist3(self.p_world_goal, ctl.p_world_port) <= p.position_tolerance
-            and angle_between(self.q_world_goal, ctl.q_world_port, self._v_tmp) <= p.orientation_tolerance
-        ):
-            return ExitCondition.GOAL_REACHED
-        elapsed = t - self._t0
-        assert p.watchdog is not None
-        if elapsed >= p.watchdog:
-            return ExitCondition.TIMEOUT
-        if self._arrived:
-            return None  # the attractor sits on the goal; nothing to move
-        alpha = elapsed / p.duration
-        if alpha >= 1.0:
-            alpha = 1.0
-            self._arrived = True
-        mujoco.mju_addScl3(ctl.p_world_attractor, self._p_world_from, self._dp_world, alpha)
-        if self._rotates:
-            rotate_world(ctl.q_world_attractor, self._q_world_from, self._rotvec_world, alpha, self._q_tmp)
-        return None
+        return super().exit_for(ctl, stop)

@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from robot_sim import tick
 from robot_sim.behaviors.base import Behavior, ExitCondition
 from robot_sim.controller import AdmittanceController
 from robot_sim.params import RweParams
@@ -28,22 +29,19 @@ class Rwe(Behavior):
     def __init__(self, params: RweParams) -> None:
         self.params = params
         self._mask = np.array(params.axis_mask(), dtype=bool)  # (6,) True: relieve this axis
-        self._kept_stretch = np.zeros(6)  # base axes
         self._R_world_axes = np.eye(3)
-        self._t0 = 0.0
 
     def start(self, ctl: AdmittanceController, t: float, frames: TaskFrames) -> None:
-        self._t0 = t
         ctl.measure_stretch()
         self._R_world_axes = frames.axes_world(self.params.frame, ctl.q_world_port)
         stretch_axes = turn6(self._R_world_axes.T, ctl.stretch_world())
-        self._kept_stretch[:] = turn6(self._R_world_axes, np.where(self._mask, 0.0, stretch_axes))
-        ctl.place_attractor_from_port(self._kept_stretch)
+        kept_stretch = turn6(self._R_world_axes, np.where(self._mask, 0.0, stretch_axes))  # base axes
+        ctl.start_motion(tick.MOTION_RWE, t, self.params.duration)
+        ctl.f[tick.KEPT_STRETCH : tick.KEPT_STRETCH + 6] = kept_stretch
+        ctl.place_attractor_from_port(kept_stretch)
 
-    def update(self, ctl: AdmittanceController, t: float) -> ExitCondition | None:
-        ctl.place_attractor_from_port(self._kept_stretch)
-        if t - self._t0 < self.params.duration:
-            return None
+    def exit_for(self, ctl: AdmittanceController, stop: int) -> ExitCondition:
+        assert stop == tick.Stop.DURATION_ENDED, stop
         return ExitCondition.COMPLETED if self.relieved(ctl.w_world_env_on_port) else ExitCondition.TIMEOUT
 
     def relieved(self, wrench_world: np.ndarray) -> bool:
