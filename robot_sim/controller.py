@@ -263,6 +263,15 @@ class AdmittanceController:
         self.i[tick.RUNNING] = 0
         self.i[tick.MOTION_KIND] = tick.MOTION_NONE
 
+    def norm_sums(self) -> tuple[float, float]:
+        """(sum of |f| [N], sum of |tau| [N m]) over the ticks run since `set_norm_sums`."""
+        return float(self.f[tick.FORCE_NORM_SUM]), float(self.f[tick.TORQUE_NORM_SUM])
+
+    def set_norm_sums(self, force_sum_n: float, torque_sum_nm: float) -> None:
+        """Start the sums of |f| and |tau| the loop adds every tick to (a sweep's mean force)."""
+        self.f[tick.FORCE_NORM_SUM] = force_sum_n
+        self.f[tick.TORQUE_NORM_SUM] = torque_sum_nm
+
     def held_seconds(self) -> dict[Limit, float]:
         """[s] per limit that held the running behavior's motion back."""
         seconds = self.f[tick.HELD_S : tick.HELD_S + 3]

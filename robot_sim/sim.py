@@ -16,6 +16,7 @@ Kinematics and sensors in MjData are those mj_step computed at the start of its 
 so the controller sees the robot 1 ms late, as it would a real sensor and servo bus.
 """
 
+import math
 from dataclasses import dataclass
 
 import mujoco
@@ -37,6 +38,8 @@ from robot_sim.scenes.grasp import actuate, check_close_time, close_time, set_cl
 from robot_sim.task_frames import TaskFrame, TaskFrames, scene_frames, unit_quaternion
 from robot_sim.task_monitor import FrictionMonitor
 
+# `advance`'s bound when the run ends on a sim time or a behavior's end instead
+UNBOUNDED_TICKS = 2**62
 SETTLE_S = 0.3  # [s] physics in position hold at every (re)load, before compliance starts
 
 
@@ -213,15 +216,16 @@ class Simulation:
         """Advance one control period; returns the report if a behavior ended in it."""
         return self.advance(1)[0]
 
-    def advance(self, max_ticks: int) -> tuple[BehaviorReport | None, int]:
-        """Run up to `max_ticks` control periods, stopping after one in which a behavior ended
-        (or a fault reloaded the scene); (that report or None, the periods run)."""
+    def advance(self, max_ticks: int, until_s: float = math.inf) -> tuple[BehaviorReport | None, int]:
+        """Run up to `max_ticks` control periods (at least one), stopping after one in which a
+        behavior ended (or a fault reloaded the scene) or that ended at or past sim time `until_s`
+        [s]; (that report or None, the periods run)."""
         ctl = self.controller
         mj, f, i, n_substeps = ctl.mj, ctl.f, ctl.i, self.n_substeps
         per_call = max_ticks if self.mechanism is None else 1  # a mechanism acts after every tick
         done = 0
         while done < max_ticks:
-            ran = tick.run_ticks(mj, f, i, min(per_call, max_ticks - done), n_substeps)
+            ran = tick.run_ticks(mj, f, i, min(per_call, max_ticks - done), n_substeps, until_s)
             report = None
             stop = int(i[tick.STOP])
             if i[tick.MID_TICK]:
@@ -236,7 +240,7 @@ class Simulation:
             if stop == tick.Stop.UNSTABLE:
                 message = f"MuJoCo found the simulation unstable: {_warnings(self.data)}"
                 return self._recover_from_fault(message), done
-            if report is not None:
+            if report is not None or self.data.time >= until_s:
                 return report, done
         return None, done
 

@@ -599,10 +599,11 @@ def _tail(mj: tuple, f: np.ndarray, i: np.ndarray, n_substeps: int) -> int:
 
 
 @njit(cache=True, nogil=True)
-def run_ticks(mj: tuple, f: np.ndarray, i: np.ndarray, n_ticks: int, n_substeps: int) -> int:
-    """Run up to `n_ticks` control ticks; the ticks finished. i[STOP] says why it returned and
-    i[MID_TICK] whether the last tick still waits for its servo command and step (`finish_tick`).
-    A fault stops after the tick it happened in."""
+def run_ticks(mj: tuple, f: np.ndarray, i: np.ndarray, n_ticks: int, n_substeps: int, until_s: float) -> int:
+    """Run up to `n_ticks` control ticks, and none after one that ends at or past sim time
+    `until_s` [s]; the ticks finished. i[STOP] says why it returned and i[MID_TICK] whether the
+    last tick still waits for its servo command and step (`finish_tick`). A fault stops after the
+    tick it happened in."""
     i[STOP] = Stop.RAN
     i[MID_TICK] = 0
     for k in range(n_ticks):
@@ -614,6 +615,8 @@ def run_ticks(mj: tuple, f: np.ndarray, i: np.ndarray, n_ticks: int, n_substeps:
         stop = _tail(mj, f, i, n_substeps)
         if stop != Stop.RAN:
             i[STOP] = stop
+            return k + 1
+        if mj[6][0] >= until_s:
             return k + 1
     return n_ticks
 

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robot_sim.behaviors import BehaviorParams, behavior_for
-from robot_sim.sim import Simulation
+from robot_sim.sim import UNBOUNDED_TICKS, Simulation
 from web.twin import TwinPoint
 
 SAMPLE_S = 0.02  # [s] sim time between path points
@@ -48,8 +48,9 @@ class Previewer:
             ports, attractors = [ctl.p_world_port.copy()], [ctl.p_world_attractor.copy()]
             next_sample = sim.time + SAMPLE_S
             report = None
-            while report is None and sim.time < start.sim_time + MAX_PREVIEW_S:
-                report = sim.step()
+            end_s = start.sim_time + MAX_PREVIEW_S
+            while report is None and sim.time < end_s:
+                report, _ = sim.advance(UNBOUNDED_TICKS, min(next_sample, end_s))
                 if sim.time >= next_sample or report is not None:
                     next_sample += SAMPLE_S
                     ports.append(ctl.p_world_port.copy())

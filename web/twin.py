@@ -126,7 +126,7 @@ class GroundTwin:
             # the send, and would start the command early by as long as it was held up.
             self._sim.queue_at_arrival(heard.new, t_state, taken_at, uplink_s)
         # What the ghost shows, every RECORD_S: a restart's replay up to there is not recorded.
-        self._sim.run_to(target_s, self._keep)
+        self._sim.run_to(target_s, self._keep, self._judge.next_due_s)
         self.latest = self._sim.prediction()
         registration = self._sim.registration
         registered = registration.registered() if registration is not None else None

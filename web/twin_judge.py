@@ -4,6 +4,7 @@ sim time, each judged when telemetry for the same sim instant arrives a round tr
 Not thread-safe: the twin holds its lock around every call."""
 
 import bisect
+import math
 from collections import deque
 from typing import Any
 
@@ -33,6 +34,11 @@ class PredictionJudge:
         lock: the list read once, whole or emptied."""
         last = self._times[-1:]
         return not last or sim_time >= last[0] + RECORD_S
+
+    def next_due_s(self) -> float:
+        """[s] the sim time from which the next prediction is kept (`due`): -inf if none is kept."""
+        last = self._times[-1:]
+        return last[0] + RECORD_S if last else -math.inf
 
     def record(self, sim_time: float, port_position: np.ndarray) -> None:
         self._times.append(sim_time)

@@ -4,6 +4,7 @@ arithmetic that says when that is.
 
 Not thread-safe: only the twin's thread runs it."""
 
+import math
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -17,7 +18,7 @@ from robot_sim.errors import UnknownNameError
 from robot_sim.gains import Gains
 from robot_sim.geometry import body_poses, moving_bodies
 from robot_sim.params import PtwlParams
-from robot_sim.sim import Simulation
+from robot_sim.sim import UNBOUNDED_TICKS, Simulation
 from robot_sim.task_frames import TaskFrames
 from robot_sim.telemetry import gains_of
 from web.twin_registration import CONTACT_N, FixtureRegistration
@@ -214,15 +215,25 @@ class TwinSim:
         for s in sends:
             self._queue.append((s.params, arrival_sim_s(t_state, taken_at, s.sent_wall, uplink_s)))
 
-    def run_to(self, target_s: float, on_step: Callable[[float, np.ndarray], None]) -> None:
+    def run_to(
+        self,
+        target_s: float,
+        on_step: Callable[[float, np.ndarray], None],
+        next_due_s: Callable[[], float] = lambda: -math.inf,
+    ) -> None:
         """Step to `target_s`, starting each queued command at its time; `on_step(sim time,
-        port position)` after every step."""
+        port position)` after the first step at or past `next_due_s()` [s] sim time (every step
+        by default), and at the end."""
         sim = self.sim
         assert sim is not None
+        queue = self._queue
         while sim.time < target_s:
-            if sim.behavior is None and self._queue and sim.time >= self._queue[0][1]:
-                self._start(sim, self._queue.popleft()[0])
-            sim.step()
+            if sim.behavior is None and queue and sim.time >= queue[0][1]:
+                self._start(sim, queue.popleft()[0])
+            # Nothing starts while a behavior runs (its end stops the run), nor before the next
+            # queued command's time.
+            next_start_s = queue[0][1] if sim.behavior is None and queue else math.inf
+            sim.advance(UNBOUNDED_TICKS, min(target_s, next_due_s(), next_start_s))
             on_step(sim.time, sim.controller.p_world_port)
 
     @staticmethod

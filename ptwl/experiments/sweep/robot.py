@@ -8,6 +8,7 @@ It speaks the messages of the real API, as Python objects: a POST of a command (
 its acceptance), a GET of a command's status, and a command event when one ends.
 """
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -17,7 +18,7 @@ from robot_sim.command_runner import CommandRunner, Stopped
 from robot_sim.executor import CommandParams
 from robot_sim.limits import COMMAND_HISTORY_MAX, COMMAND_QUEUE_MAX
 from robot_sim.policies.run import StepRecord
-from robot_sim.sim import Simulation
+from robot_sim.sim import UNBOUNDED_TICKS, Simulation
 
 # The trial's clock as Unix time (what `sent_at` and `max_age` are judged by): its t = 0. Zero, so
 # that a record's times (queued_at, started_at, ended_at) are the trial's sim seconds, the clock
@@ -159,17 +160,24 @@ class VirtualRobot:
             return Status(request.tag, False, None)
         return Status(request.tag, True, Outcome.of(record) if record.status == "done" else None)
 
-    def tick(self) -> Done | None:
-        """One control period: start the next queued command if idle, step; a command that ended
-        (run or not: the server announces each as it ends), one a tick, in the order they ended."""
+    def tick(self, until_s: float = -math.inf) -> Done | None:
+        """One control period, or more up to `until_s` [s] sim time while nothing else can happen:
+        start the next queued command if idle, step; a command that ended (run or not: the server
+        announces each as it ends), one a tick, in the order they ended."""
         sim, figures = self.sim, self.figures
         if self.commands.start_next() is not None and figures.first_start_s is None:
             figures.first_start_s = sim.time
-        report = sim.step()
-        if figures.first_start_s is not None:
-            figures.force_sum += sim.controller.force_norm
-            figures.torque_sum += sim.controller.torque_norm
-            figures.ticks += 1
+        # After start_next the queue is empty or a behavior runs, and only a behavior's end (which
+        # stops the run) can start anything before the link acts again at `until_s`; ended
+        # commands still to announce go one a tick.
+        counting = figures.first_start_s is not None
+        ctl = sim.controller
+        if counting:  # the compiled loop adds each tick's |f| and |tau| to the sums (tick.py)
+            ctl.set_norm_sums(figures.force_sum, figures.torque_sum)
+        report, ran = sim.advance(1 if self._ended else UNBOUNDED_TICKS, until_s)
+        if counting:
+            figures.force_sum, figures.torque_sum = sim.controller.norm_sums()
+            figures.ticks += ran
         if report is not None:
             figures.at_last_end = (figures.force_sum, figures.torque_sum, figures.ticks)
             figures.steps.append(self.commands.behavior_ended(report)[1].step)
@@ -186,9 +194,9 @@ class VirtualRobot:
         the link or the operator acts): a quiet stretch costs the physics and no bookkeeping.
         Stops at the first command that ends."""
         tick, sim = self.tick, self.sim
-        done = tick()
+        done = tick(until_s)
         while done is None and sim.time < until_s:
-            done = tick()
+            done = tick(until_s)
         return done
 
     @property
