@@ -1,9 +1,12 @@
 """Benchmark: the 1 kHz admittance loop with 1 ms physics, against bare mj_step.
 
-Prints JSON: {"raw_step_hz", "free": {"rtf", "ratio_to_raw"}, "contact": {...}}. `rtf` is sim
-seconds per wall second on one core; `ratio_to_raw` is the loop's cost per physics step over
+Prints JSON: {"raw_step_hz", "free": {"rtf", "ratio_to_raw", ...}, "contact": {...}}. `rtf` is
+sim seconds per wall second on one core; `ratio_to_raw` is the loop's cost per physics step over
 a bare Python loop of mj_step on the same model, measured in the same run (machines are noisy,
-ratios less so). Each figure is the best of REPEATS runs.
+ratios less so): the loop as sweeps, twins and previews run it (`Simulation.advance`, many
+ticks a call). `step_ratio_to_raw` is the same for one `Simulation.step()` call per tick (a
+script's way). Each figure is the best of REPEATS runs. Before the tick was compiled (issue 30)
+the loop was one Python `step()` a tick: that is what older figures measured.
 
     python -m bench.sim [--seconds 5]
 """
@@ -35,6 +38,18 @@ def raw_step_seconds(sim: Simulation, steps: int) -> float:
 
 
 def loop_step_seconds(sim: Simulation, steps: int) -> float:
+    """Wall time per tick of `Simulation.advance(steps)` (nothing ends in it: see the scenes)."""
+    best = float("inf")
+    for _ in range(REPEATS):
+        t0 = time.perf_counter()
+        report, ran = sim.advance(steps)
+        assert report is None and ran == steps
+        best = min(best, (time.perf_counter() - t0) / steps)
+    return best
+
+
+def step_call_seconds(sim: Simulation, steps: int) -> float:
+    """Wall time per `Simulation.step()` call."""
     best = float("inf")
     for _ in range(REPEATS):
         t0 = time.perf_counter()
@@ -62,11 +77,12 @@ def contact_sim() -> Simulation:
     return sim
 
 
-def measure(make: Callable[[], Simulation], steps: int) -> tuple[float, float]:
+def measure(make: Callable[[], Simulation], steps: int) -> tuple[float, float, float]:
     sim = make()
     loop = loop_step_seconds(sim, steps)
+    per_call = step_call_seconds(sim, steps)
     raw = raw_step_seconds(sim, steps)
-    return loop, raw
+    return loop, per_call, raw
 
 
 def main() -> None:
@@ -77,13 +93,15 @@ def main() -> None:
     result: dict[str, object] = {}
     raws = []
     for name, make in (("free", free_space_sim), ("contact", contact_sim)):
-        loop, raw = measure(make, steps)
+        loop, per_call, raw = measure(make, steps)
         raws.append(raw)
         sim_dt = 0.001
         result[name] = {
             "rtf": round(sim_dt / loop, 1),
             "ratio_to_raw": round(loop / raw, 2),
+            "step_ratio_to_raw": round(per_call / raw, 2),
             "loop_us_per_tick": round(loop * 1e6, 2),
+            "step_us_per_call": round(per_call * 1e6, 2),
             "raw_us_per_step": round(raw * 1e6, 2),
         }
     result = {"raw_step_hz": round(1.0 / min(raws)), **result}
