@@ -375,7 +375,7 @@ def measure_stretch(mj: tuple, f: np.ndarray, i: np.ndarray) -> None:
 
 
 @njit(cache=True, nogil=True)
-def rotate_world(f: np.ndarray, q_out: int, q_in: int, rotvec: int, scale: float) -> None:
+def _rotate_world(f: np.ndarray, q_out: int, q_in: int, rotvec: int, scale: float) -> None:
     """f[q_out] = exp(scale * f[rotvec]) * f[q_in]: rotate about base axes (pose_math's rule)."""
     f[Q_TMP] = 1.0
     f[Q_TMP + 1 : Q_TMP + 4] = 0.0
@@ -390,7 +390,7 @@ def place_attractor_from_port(mj: tuple, f: np.ndarray, i: np.ndarray, stretch: 
     port = i[PORT_SITE]
     mju_mat2Quat(_a(f, Q_WORLD_PORT), site_xmat[port].ctypes.data)
     mju_add3(_a(f, P_WORLD_ATTRACTOR), site_xpos[port].ctypes.data, _a(f, stretch))
-    rotate_world(f, Q_WORLD_ATTRACTOR, Q_WORLD_PORT, stretch + 3, 1.0)
+    _rotate_world(f, Q_WORLD_ATTRACTOR, Q_WORLD_PORT, stretch + 3, 1.0)
 
 
 @njit(cache=True, nogil=True)
@@ -459,13 +459,13 @@ def _limit_joint_motion(qpos: np.ndarray, ctrl: np.ndarray, f: np.ndarray, i: np
 
 # ----------------------------------------------------------------------- the behaviors
 @njit(cache=True, nogil=True)
-def wrench_breached(f: np.ndarray) -> bool:
+def _wrench_breached(f: np.ndarray) -> bool:
     """|f| or |tau| on the port over its threshold this tick (checked before success)."""
     return f[FORCE_NORM] > f[FORCE_THRESHOLD] or f[TORQUE_NORM] > f[TORQUE_THRESHOLD]
 
 
 @njit(cache=True, nogil=True)
-def angle_between(f: np.ndarray, q_a: int, q_b: int) -> float:
+def _angle_between(f: np.ndarray, q_a: int, q_b: int) -> float:
     """Rotation angle [rad] taking f[q_b] to f[q_a]."""
     mju_subQuat(_a(f, V_TMP), _a(f, q_a), _a(f, q_b))
     return mju_norm3(_a(f, V_TMP))
@@ -484,12 +484,12 @@ def dither_progress(mj: tuple, f: np.ndarray, i: np.ndarray) -> float:
 @njit(cache=True, nogil=True)
 def _ptwl(mj: tuple, f: np.ndarray, i: np.ndarray, elapsed: float) -> int:
     """PTWL (behaviors/ptwl.py): breach, goal, watchdog; else the attractor's straight travel."""
-    if wrench_breached(f):
+    if _wrench_breached(f):
         return Stop.WRENCH_BREACH
     p_port = mj[3][i[PORT_SITE]].ctypes.data
     if (
         mju_dist3(_a(f, P_GOAL), p_port) <= f[POSITION_TOLERANCE]
-        and angle_between(f, Q_GOAL, Q_WORLD_PORT) <= f[ORIENTATION_TOLERANCE]
+        and _angle_between(f, Q_GOAL, Q_WORLD_PORT) <= f[ORIENTATION_TOLERANCE]
     ):
         return Stop.GOAL_REACHED
     if elapsed >= f[WATCHDOG]:
@@ -502,14 +502,14 @@ def _ptwl(mj: tuple, f: np.ndarray, i: np.ndarray, elapsed: float) -> int:
         i[ARRIVED] = 1
     mju_addScl3(_a(f, P_WORLD_ATTRACTOR), _a(f, P_FROM), _a(f, DP_WORLD), alpha)
     if i[ROTATES]:
-        rotate_world(f, Q_WORLD_ATTRACTOR, Q_FROM, ROTVEC_WORLD, alpha)
+        _rotate_world(f, Q_WORLD_ATTRACTOR, Q_FROM, ROTVEC_WORLD, alpha)
     return Stop.RAN
 
 
 @njit(cache=True, nogil=True)
 def _dither(mj: tuple, f: np.ndarray, i: np.ndarray, elapsed: float) -> int:
     """Dither (behaviors/dither.py): breach, progress, watchdog; else the advancing wiggle."""
-    if wrench_breached(f):
+    if _wrench_breached(f):
         return Stop.WRENCH_BREACH
     if dither_progress(mj, f, i) >= f[ENDS_AT] - TRAVEL_TOLERANCE_M:
         return Stop.GOAL_REACHED
@@ -522,7 +522,7 @@ def _dither(mj: tuple, f: np.ndarray, i: np.ndarray, elapsed: float) -> int:
     mju_addScl3(_a(f, P_WORLD_ATTRACTOR), _a(f, P_FROM), _a(f, AXIS_WORLD), advance)
     if i[DITHER_MODE] == DITHER_TORSIONAL:
         mju_scl3(_a(f, WIGGLE), _a(f, AXIS_WORLD), amplitude * math.sin(phase))
-        rotate_world(f, Q_WORLD_ATTRACTOR, Q_FROM, WIGGLE, 1.0)
+        _rotate_world(f, Q_WORLD_ATTRACTOR, Q_FROM, WIGGLE, 1.0)
     else:
         mju_scl3(_a(f, WIGGLE), _a(f, E1), amplitude * math.cos(phase))
         mju_addToScl3(_a(f, WIGGLE), _a(f, E2), amplitude * math.sin(phase))
@@ -532,7 +532,7 @@ def _dither(mj: tuple, f: np.ndarray, i: np.ndarray, elapsed: float) -> int:
 
 
 @njit(cache=True, nogil=True)
-def move_attractor(mj: tuple, f: np.ndarray, i: np.ndarray, t: float) -> int:
+def _move_attractor(mj: tuple, f: np.ndarray, i: np.ndarray, t: float) -> int:
     """The running behavior's tick at sim time t [s]: a Stop code (RAN: it goes on)."""
     kind = i[MOTION_KIND]
     elapsed = t - f[T0]
@@ -568,7 +568,7 @@ def _head(mj: tuple, f: np.ndarray, i: np.ndarray) -> int:
         for j in range(6):
             if i[JOINTS_HELD + j] != JOINT_FREE:
                 i[HELD_JOINT_END + j] = i[JOINTS_HELD + j]
-    stop = move_attractor(mj, f, i, mj[6][0])  # its own exits first: a breach before all
+    stop = _move_attractor(mj, f, i, mj[6][0])  # its own exits first: a breach before all
     if stop != Stop.RAN or not i[MONITOR_ACTIVE]:
         return stop
     p_port = mj[3][i[PORT_SITE]]

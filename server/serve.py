@@ -6,18 +6,21 @@ from dataclasses import replace
 import uvicorn
 
 from ptwl.guard.listen import bind, listening_url
+from robot_sim.warm import warm_up
 from server.app import create_app
 from server.config import ServerConfig
 
 
 def serve(config: ServerConfig) -> None:
     config.check()
+    warm_s = warm_up()  # before the port opens: no command waits on a compile
     sock = bind(config.host, config.port)
     port = sock.getsockname()[1]
     print(
         f"ptwl serve: robot server on {listening_url(sock)} "
         f"(scene {config.scene}, telemetry {config.telemetry_hz:g} Hz, "
-        f"{'token required' if config.token else 'no token: loopback only'})",
+        f"{'token required' if config.token else 'no token: loopback only'}; "
+        f"compiled tick loaded in {warm_s:.1f} s)",
         flush=True,
     )
     app = create_app(replace(config, port=port))  # the Origin check needs the port really bound

@@ -3,6 +3,7 @@
 import signal
 import threading
 
+from robot_sim.warm import warm_up
 from web.app import ConsoleApp
 
 
@@ -17,6 +18,8 @@ def run_console(
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda signum, frame: stop.set())
+    warm_s = warm_up()  # the twin and the preview run the compiled tick: not on a first click
+    print(f"ptwl console: compiled tick loaded in {warm_s:.1f} s", flush=True)
     app = ConsoleApp(robot_url, host=host, port=port, token=token, allow_origins=allow_origins, replay=replay)
     print(f"ptwl console: operator console on {app.url} (robot via {robot_url})", flush=True)
     try:
