@@ -31,6 +31,7 @@ from robot_sim.policies.sleeve_on_peg import SleeveOnPeg
 from robot_sim.presets import default_presets
 from robot_sim.scenes import SCENES
 from robot_sim.sim import Simulation
+from robot_sim.warm import warm_up
 from server.config import MAX_SENT_AT_SKEW_S, SENT_AT_SKEW_S, ConfigError
 from server.pacing import RealTimePacer
 
@@ -93,6 +94,7 @@ def cmd_up(args: argparse.Namespace) -> int:
     if args.record is not None:
         check_record_path(args.record)
         check_record_path(link_record(args.record))
+    warm_up()  # compiled once here, into the cache the robot and the console then load
     return up(args.scene, link_args, args.server_port, args.proxy_port, args.console_port, args.record)
 
 

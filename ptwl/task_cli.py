@@ -21,6 +21,7 @@ from robot_sim.policies.paper_tables import beside_paper
 from robot_sim.policies.run import paper_rows
 from robot_sim.scenes import get_scene
 from robot_sim.scenes.grasp import PNEUMATIC_CLOSE_S, check_close_time
+from robot_sim.warm import warm_up
 
 
 def cmd_list(_: argparse.Namespace) -> int:
@@ -97,6 +98,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     check_close_time(
         args.task, get_scene(args.task).gripper, args.gripper_close_s
     )  # before any worker starts
+    warm_up()  # compiled here once, into the cache every worker then loads (robot_sim/warm.py)
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
         trials = pool.map(
             run_onboard,

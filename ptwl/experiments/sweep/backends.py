@@ -18,6 +18,7 @@ from ptwl_config import PtwlError
 from ptwl.experiments.sweep.parent_watch import ParentWatch
 from ptwl.experiments.sweep.spec import TrialSpec
 from ptwl.experiments.sweep.trial import run_trial
+from robot_sim.warm import warm_up
 
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
 LOCAL = "local"
@@ -53,6 +54,7 @@ def _kill_me_with_parent() -> bool:
 def run_local(specs: list[TrialSpec], workers: int, record_dir: str | None = None) -> Iterator[Finished]:
     if not specs:
         return
+    warm_up()  # compiled here once, into the cache every worker then loads (robot_sim/warm.py)
     with ProcessPoolExecutor(max_workers=workers, initializer=_worker_init, initargs=(os.getpid(),)) as pool:
         futures = [pool.submit(run_trial, spec, record_dir) for spec in specs]
         try:
