@@ -3,60 +3,72 @@
 Prints JSON: {"raw_step_hz", "free": {"rtf", "ratio_to_raw", ...}, "contact": {...}}. `rtf` is
 sim seconds per wall second on one core; `ratio_to_raw` is the loop's cost per physics step over
 a bare Python loop of mj_step on the same model, measured in the same run (machines are noisy,
-ratios less so): the loop as sweeps, twins and previews run it (`Simulation.advance`, many
-ticks a call). `step_ratio_to_raw` is the same for one `Simulation.step()` call per tick (a
-script's way). Each figure is the best of REPEATS runs. Before the tick was compiled (issue 30)
-the loop was one Python `step()` a tick: that is what older figures measured.
+ratios less so): the loop as sweeps, twins and previews run it (`Simulation.advance`, many ticks
+a call). `step_ratio_to_raw` is the same for one `Simulation.step()` call per tick (a script's
+way). Each figure is the best of REPEATS rounds, the three measured in turn from the same state.
+Before the tick was compiled (issue 30) the loop was one Python `step()` a tick.
 
-    python -m bench.sim [--seconds 5]
+    python -m bench.sim [--seconds 2]
 """
 
 import argparse
 import json
+import math
 import time
 from collections.abc import Callable
 
 import mujoco
+import numpy as np
 
 from robot_sim.behaviors.ptwl import Ptwl
 from robot_sim.params import PtwlParams
 from robot_sim.sim import Simulation
 
-REPEATS = 3
+REPEATS = 5
+# MuJoCo's whole integration state (time, qpos, qvel, act, ctrl, warm start, ...): every
+# measurement of a round starts from the same one, so the three see the same contacts.
+STATE = mujoco.mjtState.mjSTATE_INTEGRATION
+
+
+class Snapshot:
+    """The simulation's state (MuJoCo's and the controller's), to start each measurement from."""
+
+    def __init__(self, sim: Simulation) -> None:
+        self.sim = sim
+        self.state = np.zeros(mujoco.mj_stateSize(sim.model, STATE))
+        mujoco.mj_getState(sim.model, sim.data, self.state, STATE)
+        self.f, self.i = sim.controller.f.copy(), sim.controller.i.copy()
+
+    def restore(self) -> None:
+        sim = self.sim
+        mujoco.mj_setState(sim.model, sim.data, self.state, STATE)
+        mujoco.mj_forward(sim.model, sim.data)
+        sim.controller.f[:], sim.controller.i[:] = self.f, self.i
 
 
 def raw_step_seconds(sim: Simulation, steps: int) -> float:
-    """Wall time per bare mj_step of the same model and state (a Python loop, as ours is)."""
+    """Wall time per bare mj_step of the same model and state (a Python loop)."""
     model, data = sim.model, sim.data
-    best = float("inf")
-    for _ in range(REPEATS):
-        t0 = time.perf_counter()
-        for _ in range(steps):
-            mujoco.mj_step(model, data)
-        best = min(best, (time.perf_counter() - t0) / steps)
-    return best
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        mujoco.mj_step(model, data)
+    return (time.perf_counter() - t0) / steps
 
 
 def loop_step_seconds(sim: Simulation, steps: int) -> float:
     """Wall time per tick of `Simulation.advance(steps)` (nothing ends in it: see the scenes)."""
-    best = float("inf")
-    for _ in range(REPEATS):
-        t0 = time.perf_counter()
-        report, ran = sim.advance(steps)
-        assert report is None and ran == steps
-        best = min(best, (time.perf_counter() - t0) / steps)
-    return best
+    t0 = time.perf_counter()
+    report, ran = sim.advance(steps)
+    assert report is None and ran == steps
+    return (time.perf_counter() - t0) / steps
 
 
 def step_call_seconds(sim: Simulation, steps: int) -> float:
     """Wall time per `Simulation.step()` call."""
-    best = float("inf")
-    for _ in range(REPEATS):
-        t0 = time.perf_counter()
-        for _ in range(steps):
-            sim.step()
-        best = min(best, (time.perf_counter() - t0) / steps)
-    return best
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        sim.step()
+    return (time.perf_counter() - t0) / steps
 
 
 def free_space_sim() -> Simulation:
@@ -78,16 +90,21 @@ def contact_sim() -> Simulation:
 
 
 def measure(make: Callable[[], Simulation], steps: int) -> tuple[float, float, float]:
+    """(loop, step call, bare mj_step) [s] per tick: the best of REPEATS rounds, each measuring
+    the three in turn from the same state (a busy machine's noise lands on all three alike)."""
     sim = make()
-    loop = loop_step_seconds(sim, steps)
-    per_call = step_call_seconds(sim, steps)
-    raw = raw_step_seconds(sim, steps)
-    return loop, per_call, raw
+    start = Snapshot(sim)
+    best = [math.inf, math.inf, math.inf]
+    for _ in range(REPEATS):
+        for k, how in enumerate((loop_step_seconds, step_call_seconds, raw_step_seconds)):
+            start.restore()
+            best[k] = min(best[k], how(sim, steps))
+    return best[0], best[1], best[2]
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seconds", type=float, default=5.0, help="sim seconds per measurement")
+    parser.add_argument("--seconds", type=float, default=2.0, help="sim seconds per measurement")
     args = parser.parse_args()
     steps = int(args.seconds * 1000)
     result: dict[str, object] = {}

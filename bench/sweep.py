@@ -88,8 +88,10 @@ def main() -> None:
     args = parser.parse_args()
     specs = [TrialSpec("sleeve_on_peg", "onboard", 0.0, 0.0, 0.0, seed) for seed in range(args.trials)]
     workers = os.cpu_count() or 1
-    one, rows_one = rate(specs, 1)
-    every, rows_every = rate(specs, workers)
+    # Interleaved, the faster of two each: a shared machine's speed swings by tens of percent.
+    (one, rows_one), (every, rows_every) = rate(specs, 1), rate(specs, workers)
+    one = max(one, rate(specs, 1)[0], key=lambda r: r["trials_per_min"])
+    every = max(every, rate(specs, workers)[0], key=lambda r: r["trials_per_min"])
     same = sorted(map(repr, rows_one)) == sorted(map(repr, rows_every))
     share = statistics.fmean(physics_share(spec) for spec in specs[:3])
     # Interleaved, best of three: a shared machine's noise is +-25 % run to run here.
@@ -109,6 +111,8 @@ def main() -> None:
                 "speedup": round(every["trials_per_min"] / one["trials_per_min"], 2),
                 "same_rows": same,
                 "physics_share": round(share, 3),
+                # the rate over the physics-only ceiling below (issue 30's >= 0.85)
+                "of_physics_ceiling": round(share, 3),
                 # The ceiling with a free controller: physics alone, on every worker.
                 "per_10s_sim_physics_only": round(every["per_10s_sim"] / share, 1),
                 # The ceiling with a free sleeve contact model: the arm, controller, link and
