@@ -5,15 +5,16 @@ sim seconds per wall second on one core; `ratio_to_raw` is the loop's cost per p
 a bare Python loop of mj_step on the same model, measured in the same run (machines are noisy,
 ratios less so): the loop as sweeps, twins and previews run it (`Simulation.advance`, many ticks
 a call). `step_ratio_to_raw` is the same for one `Simulation.step()` call per tick (a script's
-way). Each figure is the best of REPEATS rounds, the three measured in turn from the same state.
+way). Each ratio is the median over REPEATS rounds of the round's own ratio, the three measured
+in turn from the same state in each round; the times are the best round's.
 Before the tick was compiled (issue 30) the loop was one Python `step()` a tick.
 
-    python -m bench.sim [--seconds 2]
+    python -m bench.sim [--seconds 1]
 """
 
 import argparse
 import json
-import math
+import statistics
 import time
 from collections.abc import Callable
 
@@ -24,7 +25,7 @@ from robot_sim.behaviors.ptwl import Ptwl
 from robot_sim.params import PtwlParams
 from robot_sim.sim import Simulation
 
-REPEATS = 5
+REPEATS = 9
 # MuJoCo's whole integration state (time, qpos, qvel, act, ctrl, warm start, ...): every
 # measurement of a round starts from the same one, so the three see the same contacts.
 STATE = mujoco.mjtState.mjSTATE_INTEGRATION
@@ -89,34 +90,38 @@ def contact_sim() -> Simulation:
     return sim
 
 
-def measure(make: Callable[[], Simulation], steps: int) -> tuple[float, float, float]:
-    """(loop, step call, bare mj_step) [s] per tick: the best of REPEATS rounds, each measuring
-    the three in turn from the same state (a busy machine's noise lands on all three alike)."""
+def measure(make: Callable[[], Simulation], steps: int) -> list[tuple[float, float, float]]:
+    """Per round, (loop, step call, bare mj_step) [s] per tick: REPEATS rounds, each measuring
+    the three in turn from the same state, back to back (a busy machine's slow spells, which
+    last longer than a round, land on all three alike)."""
     sim = make()
     start = Snapshot(sim)
-    best = [math.inf, math.inf, math.inf]
+    rounds = []
     for _ in range(REPEATS):
-        for k, how in enumerate((loop_step_seconds, step_call_seconds, raw_step_seconds)):
+        figures = []
+        for how in (loop_step_seconds, step_call_seconds, raw_step_seconds):
             start.restore()
-            best[k] = min(best[k], how(sim, steps))
-    return best[0], best[1], best[2]
+            figures.append(how(sim, steps))
+        rounds.append((figures[0], figures[1], figures[2]))
+    return rounds
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seconds", type=float, default=2.0, help="sim seconds per measurement")
+    parser.add_argument("--seconds", type=float, default=1.0, help="sim seconds per measurement")
     args = parser.parse_args()
     steps = int(args.seconds * 1000)
     result: dict[str, object] = {}
     raws = []
     for name, make in (("free", free_space_sim), ("contact", contact_sim)):
-        loop, per_call, raw = measure(make, steps)
+        rounds = measure(make, steps)
+        loop, per_call, raw = (min(r[k] for r in rounds) for k in range(3))
         raws.append(raw)
         sim_dt = 0.001
         result[name] = {
             "rtf": round(sim_dt / loop, 1),
-            "ratio_to_raw": round(loop / raw, 2),
-            "step_ratio_to_raw": round(per_call / raw, 2),
+            "ratio_to_raw": round(statistics.median(r[0] / r[2] for r in rounds), 2),
+            "step_ratio_to_raw": round(statistics.median(r[1] / r[2] for r in rounds), 2),
             "loop_us_per_tick": round(loop * 1e6, 2),
             "step_us_per_call": round(per_call * 1e6, 2),
             "raw_us_per_step": round(raw * 1e6, 2),

@@ -3,7 +3,9 @@
 Each trial is a sleeve-on-peg trial (the onboard state machine at RTT 0: about 12 s of sim
 time); `per_10s_sim` scales the rate to the issue's 10 s trials. Prints JSON:
 {"trial_sim_s", "workers", "one_worker": {...}, "all_workers": {...}, "speedup", "same_rows",
-"physics_share", "per_10s_sim_physics_only", "without_wall_contact"}: `per_10s_sim_physics_only`
+"physics_share", "of_physics_ceiling", "per_10s_sim_physics_only", "without_wall_contact"}: the
+one- and all-worker rates are the faster of two interleaved runs each; `of_physics_ceiling` is
+the rate over the physics-only ceiling; `per_10s_sim_physics_only`
 is the rate's ceiling were the Python side free, set by MuJoCo's contact work (the sleeve's 16
 walls about the peg, all within 0.3 mm of it once inserted); `without_wall_contact` is the
 rate's ceiling with a free sleeve contact model: the same trials with the walls' collisions
