@@ -7,6 +7,7 @@ from collections.abc import Iterator
 import pytest
 
 from ptwl.launcher import ServiceProcess, running_console, running_proxy, running_server
+from robot_sim.warm import warm_up
 from server.client import RobotClient
 from tests.frame_cap import CappedBrowser
 from web.browser import chromium_available, launch
@@ -81,6 +82,13 @@ def browser() -> Iterator[object]:
         chromium = launch(playwright)
         yield CappedBrowser(chromium)
         chromium.close()
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """The compiled tick into numba's cache before any test (a fresh clone compiles it once,
+    ~17 s): the robot servers the tests start then load it in a fraction of a second, well
+    inside their start-up timeout, instead of each compiling it."""
+    warm_up()
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
