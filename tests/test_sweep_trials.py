@@ -2,6 +2,7 @@
 behaviors, the onboard one only once; lost messages are asked about, never waited on forever."""
 
 import itertools
+import math
 from pathlib import Path
 
 import pytest
@@ -296,3 +297,19 @@ def test_a_recorded_trial_replays_as_the_virtual_robots_own_records(tmp_path: Pa
         assert [m.value["status"] for m in events] == ["queued", "running", "done"]
         times = [record["queued_at"], record["started_at"], record["ended_at"]]
         assert [m.log_time_ns for m in events] == [round(t * 1e9) for t in times]
+
+
+def test_a_fault_keeps_the_force_sums_the_robot_had_added_up() -> None:
+    """The mean force a trial reports is over every tick from the first start: a fault, which
+    reloads the scene and its controller, loses none of the ticks before it."""
+    robot = VirtualRobot("quick_connect", 0)
+    robot.handle(Post("ground-1", PtwlParams(translation=[0.0, 0.0, 0.02], duration=2.0)))
+    robot.tick_until(robot.sim.time + 0.5)
+    figures = robot.figures
+    force_sum, torque_sum, ticks = figures.force_sum, figures.torque_sum, figures.ticks
+    assert ticks >= 500 and force_sum > 0.0 and torque_sum > 0.0
+    robot.sim.data.qvel[2] = math.nan
+    done = robot.tick_until(robot.sim.time + 0.5)
+    assert done is not None and done.outcome.exit == "fault"
+    assert figures.force_sum >= force_sum and figures.torque_sum >= torque_sum
+    assert figures.ticks > ticks

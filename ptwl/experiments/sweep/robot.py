@@ -175,8 +175,8 @@ class VirtualRobot:
         if counting:  # the compiled loop adds each tick's |f| and |tau| to the sums (tick.py)
             ctl.set_norm_sums(figures.force_sum, figures.torque_sum)
         report, ran = sim.advance(1 if self._ended else UNBOUNDED_TICKS, until_s)
-        if counting:
-            figures.force_sum, figures.torque_sum = sim.controller.norm_sums()
+        if counting:  # from the controller they were added on: a fault has since made a new one
+            figures.force_sum, figures.torque_sum = ctl.norm_sums()
             figures.ticks += ran
         if report is not None:
             figures.at_last_end = (figures.force_sum, figures.torque_sum, figures.ticks)
