@@ -54,8 +54,15 @@ STIFFNESS_EPS = 1e-9
 
 
 def _rotated_diagonal(R: np.ndarray, diagonal: np.ndarray) -> np.ndarray:
-    """(3, 3) R diag(diagonal) R^T: a diagonal gain in R's axes, seen in base axes."""
-    return (R * diagonal) @ R.T
+    """(3, 3) R diag(diagonal) R^T: a diagonal gain in R's axes, seen in base axes (tick.py's rule)."""
+    out = np.zeros(9)
+    tick.rotated_diagonal(
+        np.ascontiguousarray(R, dtype=float).ravel(),
+        np.ascontiguousarray(diagonal, dtype=float),
+        out,
+        np.zeros(9),
+    )
+    return out.reshape(3, 3)
 
 
 def time_view(data: mujoco.MjData) -> np.ndarray:
@@ -124,7 +131,6 @@ class AdmittanceController:
             data.sensordata,
             data.site_xpos,
             data.site_xmat,
-            data.warning.number,
             time_view(data),
         )
         i[tick.M_ADDRESS] = model._address
@@ -312,7 +318,7 @@ class AdmittanceController:
     # ---------------------------------------------------------------------- kinematics
     def refresh_kinematics(self) -> None:
         """Rebuild the wrench map and Q from the current configuration (tick.py)."""
-        # (MuJoCo's own bad qpos/qvel/qacc checks reset the data; Simulation.step catches that.)
+        # (MuJoCo's own bad qpos/qvel/qacc checks reset the data; the tick sees its time go back.)
         if not tick.refresh_kinematics(self.mj, self.f, self.i):
             raise SimulationFault("non-finite wrench, stretch or joint position")
 

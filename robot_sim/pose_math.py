@@ -5,22 +5,7 @@ import math
 import mujoco
 import numpy as np
 
-IDENTITY_QUAT = np.array([1.0, 0.0, 0.0, 0.0])
-
-
-def rotate_world(
-    q_out: np.ndarray, q_in: np.ndarray, rotvec_world: np.ndarray, scale: float, q_tmp: np.ndarray
-) -> None:
-    """q_out = exp(scale * rotvec_world) * q_in: rotate q_in about base axes (no allocation)."""
-    mujoco.mju_copy4(q_tmp, IDENTITY_QUAT)
-    mujoco.mju_quatIntegrate(q_tmp, rotvec_world, scale)
-    mujoco.mju_mulQuat(q_out, q_tmp, q_in)
-
-
-def angle_between(q_a: np.ndarray, q_b: np.ndarray, tmp3: np.ndarray) -> float:
-    """Rotation angle [rad] taking q_b to q_a."""
-    mujoco.mju_subQuat(tmp3, q_a, q_b)
-    return mujoco.mju_norm3(tmp3)
+from robot_sim.tick import angle_between, rotate_world  # noqa: F401 (compiled; one copy, shared with the tick)
 
 
 def rotation_matrix(quat: np.ndarray) -> np.ndarray:

@@ -222,6 +222,7 @@ class Simulation:
         [s]; (that report or None, the periods run)."""
         ctl = self.controller
         mj, f, i, n_substeps = ctl.mj, ctl.f, ctl.i, self.n_substeps
+        max_ticks, until_s = int(max_ticks), float(until_s)  # the types the loop is compiled for
         per_call = max_ticks if self.mechanism is None else 1  # a mechanism acts after every tick
         done = 0
         while done < max_ticks:

@@ -16,6 +16,10 @@ reads and writes (`MjArrays`). MuJoCo's own C functions (`mj_step`, `mj_jacSite`
 vector and quaternion helpers) are called by name from libmujoco, the library the `mujoco`
 package ships and has already loaded, so the math is MuJoCo's, as in the interpreted loop.
 
+MuJoCo's errors: the bindings turn a fatal MuJoCo error into `mujoco.FatalError`; called from
+here, MuJoCo's own handler prints it and ends the process. The only one a step can raise is a
+full arena, and the scenes use 0.2 % of theirs at most (a sleeve-on-peg trial: 26 kB of 13.6 MB).
+
 Tick order (as the interpreted loop had it): measure the wrench; keep peaks and what held the
 port back; the behavior moves the attractor or ends; the task monitor's window; eq. 5 + DLS
 to the servos; mj_step. The loop returns mid-tick (`Stop`) when Python must act before the
@@ -23,6 +27,7 @@ servos are commanded: a behavior's exit (a breach's `on_breach` moves the attrac
 monitor window to judge, or a fault.
 """
 
+import glob
 import math
 import os
 from enum import IntEnum
@@ -34,9 +39,11 @@ import numpy as np
 from numba import njit, types
 
 # ------------------------------------------------------------------------ MuJoCo's C API
-llvmlite.binding.load_library_permanently(
-    os.path.join(os.path.dirname(mujoco.__file__), f"libmujoco.so.{mujoco.__version__}")
-)
+# the library the bindings load, beside them (libmujoco.so.X on Linux, libmujoco.X.dylib on macOS)
+_LIBRARY = sorted(glob.glob(os.path.join(os.path.dirname(mujoco.__file__), "libmujoco*")))
+if not _LIBRARY:
+    raise ImportError(f"no libmujoco beside the mujoco package in {os.path.dirname(mujoco.__file__)}")
+llvmlite.binding.load_library_permanently(_LIBRARY[0])
 _P = types.intp  # a pointer, passed as its address (the same register on 64-bit ABIs)
 _I = types.int32
 _D = types.float64
@@ -235,15 +242,7 @@ MONITOR_TICKS_PER_WINDOW = _i.take(1)
 MONITOR_STARTED = _i.take(1)  # the window's start position is set
 STOP = _i.take(1)  # a Stop code
 MID_TICK = _i.take(1)  # 1: the loop returned before commanding this tick's servos
-UNSTABLE_WARNINGS = _i.take(1)  # MuJoCo's bad qpos/qvel/qacc counters before the step
 I_SIZE = _i.size
-
-# MuJoCo counts each automatic reset (a bad qpos, qvel or qacc) in these warnings.
-_RESET_WARNINGS = (
-    int(mujoco.mjtWarning.mjWARN_BADQPOS),
-    int(mujoco.mjtWarning.mjWARN_BADQVEL),
-    int(mujoco.mjtWarning.mjWARN_BADQACC),
-)
 
 
 def f_size(nv: int) -> int:
@@ -257,31 +256,63 @@ def _a(f: np.ndarray, offset: int) -> int:
     return f.ctypes.data + 8 * offset
 
 
-# MjArrays: (qpos, ctrl, sensordata, site_xpos (nsite, 3), site_xmat (nsite, 9), warning counts,
-# time (1,)), views into one MjData (controller.py builds it).
+# MjArrays: (qpos, ctrl, sensordata, site_xpos (nsite, 3), site_xmat (nsite, 9), time (1,)),
+# views into one MjData (controller.py builds it). The arm's servos are ctrl[0:6] (position)
+# and ctrl[6:12] (velocity), its joints the first six dofs: ArmLayout.from_model checks both.
+
+
+# The pose rules shared with Python (pose_math.py, controller.py re-use these): on contiguous
+# float64 vectors, typed up front so that no other layout can reach the pointers.
+_VEC = "float64[::1]"
+
+
+@njit(f"void({_VEC}, {_VEC}, {_VEC}, {_VEC})", cache=True, nogil=True)
+def rotated_diagonal(R: np.ndarray, diagonal: np.ndarray, out: np.ndarray, tmp: np.ndarray) -> None:
+    """out (9,) = R diag(diagonal) R^T, R (9,) row-major: a diagonal gain in R's axes, in base axes."""
+    for r in range(3):
+        for c in range(3):
+            tmp[3 * r + c] = R[3 * r + c] * diagonal[c]
+    mju_mulMatMatT(out.ctypes.data, tmp.ctypes.data, R.ctypes.data, 3, 3, 3)
+
+
+@njit(f"void({_VEC}, {_VEC}, {_VEC}, float64, {_VEC})", cache=True, nogil=True)
+def rotate_world(
+    q_out: np.ndarray, q_in: np.ndarray, rotvec_world: np.ndarray, scale: float, q_tmp: np.ndarray
+) -> None:
+    """q_out = exp(scale * rotvec_world) * q_in: rotate q_in about base axes (no allocation)."""
+    q_tmp[0] = 1.0
+    q_tmp[1:4] = 0.0
+    mju_quatIntegrate(q_tmp.ctypes.data, rotvec_world.ctypes.data, scale)
+    mju_mulQuat(q_out.ctypes.data, q_tmp.ctypes.data, q_in.ctypes.data)
+
+
+@njit(f"float64({_VEC}, {_VEC}, {_VEC})", cache=True, nogil=True)
+def angle_between(q_a: np.ndarray, q_b: np.ndarray, tmp3: np.ndarray) -> float:
+    """Rotation angle [rad] taking q_b to q_a."""
+    mju_subQuat(tmp3.ctypes.data, q_a.ctypes.data, q_b.ctypes.data)
+    return mju_norm3(tmp3.ctypes.data)
+
+
+@njit(cache=True, nogil=True)
+def _v(f: np.ndarray, offset: int, n: int) -> np.ndarray:
+    """f[offset:offset + n], a contiguous view."""
+    return f[offset : offset + n]
 
 
 @njit(cache=True, nogil=True)
 def rotate_gains(f: np.ndarray) -> None:
     """B^-1 and B^-1 K blocks in base axes: R diag(d) R^T from the diagonals in the gains' axes."""
-    _rotated_diagonal(f, INV_DAMPING, INV_B_POS)
-    _rotated_diagonal(f, INV_DAMPING + 3, INV_B_ROT)
-    _rotated_diagonal(f, K_OVER_B, KB_POS)
-    _rotated_diagonal(f, K_OVER_B + 3, KB_ROT)
-
-
-@njit(cache=True, nogil=True)
-def _rotated_diagonal(f: np.ndarray, diagonal: int, out: int) -> None:
-    for r in range(3):
-        for c in range(3):
-            f[TMP33 + 3 * r + c] = f[R_GAINS + 3 * r + c] * f[diagonal + c]
-    mju_mulMatMatT(_a(f, out), _a(f, TMP33), _a(f, R_GAINS), 3, 3, 3)
+    R, tmp = _v(f, R_GAINS, 9), _v(f, TMP33, 9)
+    rotated_diagonal(R, _v(f, INV_DAMPING, 3), _v(f, INV_B_POS, 9), tmp)
+    rotated_diagonal(R, _v(f, INV_DAMPING + 3, 3), _v(f, INV_B_ROT, 9), tmp)
+    rotated_diagonal(R, _v(f, K_OVER_B, 3), _v(f, KB_POS, 9), tmp)
+    rotated_diagonal(R, _v(f, K_OVER_B + 3, 3), _v(f, KB_ROT, 9), tmp)
 
 
 @njit(cache=True, nogil=True)
 def refresh_kinematics(mj: tuple, f: np.ndarray, i: np.ndarray) -> bool:
     """Rebuild the wrench map and Q from the current configuration; False: a non-finite signal."""
-    qpos, ctrl, _sensordata, _site_xpos, site_xmat, _warnings, _time = mj
+    qpos, ctrl, _sensordata, _site_xpos, site_xmat, _time = mj
     q0 = i[QPOS_ADR]
     if not (math.isfinite(mju_sum(_a(f, V), 13)) and math.isfinite(mju_sum(qpos.ctypes.data + 8 * q0, 6))):
         return False
@@ -375,22 +406,15 @@ def measure_stretch(mj: tuple, f: np.ndarray, i: np.ndarray) -> None:
 
 
 @njit(cache=True, nogil=True)
-def _rotate_world(f: np.ndarray, q_out: int, q_in: int, rotvec: int, scale: float) -> None:
-    """f[q_out] = exp(scale * f[rotvec]) * f[q_in]: rotate about base axes (pose_math's rule)."""
-    f[Q_TMP] = 1.0
-    f[Q_TMP + 1 : Q_TMP + 4] = 0.0
-    mju_quatIntegrate(_a(f, Q_TMP), _a(f, rotvec), scale)
-    mju_mulQuat(_a(f, q_out), _a(f, Q_TMP), _a(f, q_in))
-
-
-@njit(cache=True, nogil=True)
 def place_attractor_from_port(mj: tuple, f: np.ndarray, i: np.ndarray, stretch: int) -> None:
     """Attractor = port (+) f[stretch:stretch+6]: translation and base-axes rotation vector."""
     site_xpos, site_xmat = mj[3], mj[4]
     port = i[PORT_SITE]
     mju_mat2Quat(_a(f, Q_WORLD_PORT), site_xmat[port].ctypes.data)
     mju_add3(_a(f, P_WORLD_ATTRACTOR), site_xpos[port].ctypes.data, _a(f, stretch))
-    _rotate_world(f, Q_WORLD_ATTRACTOR, Q_WORLD_PORT, stretch + 3, 1.0)
+    rotate_world(
+        _v(f, Q_WORLD_ATTRACTOR, 4), _v(f, Q_WORLD_PORT, 4), _v(f, stretch + 3, 3), 1.0, _v(f, Q_TMP, 4)
+    )
 
 
 @njit(cache=True, nogil=True)
@@ -465,14 +489,7 @@ def _wrench_breached(f: np.ndarray) -> bool:
 
 
 @njit(cache=True, nogil=True)
-def _angle_between(f: np.ndarray, q_a: int, q_b: int) -> float:
-    """Rotation angle [rad] taking f[q_b] to f[q_a]."""
-    mju_subQuat(_a(f, V_TMP), _a(f, q_a), _a(f, q_b))
-    return mju_norm3(_a(f, V_TMP))
-
-
-@njit(cache=True, nogil=True)
-def dither_progress(mj: tuple, f: np.ndarray, i: np.ndarray) -> float:
+def _dither_progress(mj: tuple, f: np.ndarray, i: np.ndarray) -> float:
     """How far the port has gone along a dither's axis in the commanded direction [m]."""
     p_port = mj[3][i[PORT_SITE]]
     moved = 0.0
@@ -489,7 +506,8 @@ def _ptwl(mj: tuple, f: np.ndarray, i: np.ndarray, elapsed: float) -> int:
     p_port = mj[3][i[PORT_SITE]].ctypes.data
     if (
         mju_dist3(_a(f, P_GOAL), p_port) <= f[POSITION_TOLERANCE]
-        and _angle_between(f, Q_GOAL, Q_WORLD_PORT) <= f[ORIENTATION_TOLERANCE]
+        and angle_between(_v(f, Q_GOAL, 4), _v(f, Q_WORLD_PORT, 4), _v(f, V_TMP, 3))
+        <= f[ORIENTATION_TOLERANCE]
     ):
         return Stop.GOAL_REACHED
     if elapsed >= f[WATCHDOG]:
@@ -502,7 +520,9 @@ def _ptwl(mj: tuple, f: np.ndarray, i: np.ndarray, elapsed: float) -> int:
         i[ARRIVED] = 1
     mju_addScl3(_a(f, P_WORLD_ATTRACTOR), _a(f, P_FROM), _a(f, DP_WORLD), alpha)
     if i[ROTATES]:
-        _rotate_world(f, Q_WORLD_ATTRACTOR, Q_FROM, ROTVEC_WORLD, alpha)
+        rotate_world(
+            _v(f, Q_WORLD_ATTRACTOR, 4), _v(f, Q_FROM, 4), _v(f, ROTVEC_WORLD, 3), alpha, _v(f, Q_TMP, 4)
+        )
     return Stop.RAN
 
 
@@ -511,7 +531,7 @@ def _dither(mj: tuple, f: np.ndarray, i: np.ndarray, elapsed: float) -> int:
     """Dither (behaviors/dither.py): breach, progress, watchdog; else the advancing wiggle."""
     if _wrench_breached(f):
         return Stop.WRENCH_BREACH
-    if dither_progress(mj, f, i) >= f[ENDS_AT] - TRAVEL_TOLERANCE_M:
+    if _dither_progress(mj, f, i) >= f[ENDS_AT] - TRAVEL_TOLERANCE_M:
         return Stop.GOAL_REACHED
     if elapsed >= f[WATCHDOG]:
         return Stop.TIMEOUT
@@ -522,7 +542,7 @@ def _dither(mj: tuple, f: np.ndarray, i: np.ndarray, elapsed: float) -> int:
     mju_addScl3(_a(f, P_WORLD_ATTRACTOR), _a(f, P_FROM), _a(f, AXIS_WORLD), advance)
     if i[DITHER_MODE] == DITHER_TORSIONAL:
         mju_scl3(_a(f, WIGGLE), _a(f, AXIS_WORLD), amplitude * math.sin(phase))
-        _rotate_world(f, Q_WORLD_ATTRACTOR, Q_FROM, WIGGLE, 1.0)
+        rotate_world(_v(f, Q_WORLD_ATTRACTOR, 4), _v(f, Q_FROM, 4), _v(f, WIGGLE, 3), 1.0, _v(f, Q_TMP, 4))
     else:
         mju_scl3(_a(f, WIGGLE), _a(f, E1), amplitude * math.cos(phase))
         mju_addToScl3(_a(f, WIGGLE), _a(f, E2), amplitude * math.sin(phase))
@@ -568,7 +588,7 @@ def _head(mj: tuple, f: np.ndarray, i: np.ndarray) -> int:
         for j in range(6):
             if i[JOINTS_HELD + j] != JOINT_FREE:
                 i[HELD_JOINT_END + j] = i[JOINTS_HELD + j]
-    stop = _move_attractor(mj, f, i, mj[6][0])  # its own exits first: a breach before all
+    stop = _move_attractor(mj, f, i, mj[5][0])  # its own exits first: a breach before all
     if stop != Stop.RAN or not i[MONITOR_ACTIVE]:
         return stop
     p_port = mj[3][i[PORT_SITE]]
@@ -584,18 +604,14 @@ def _head(mj: tuple, f: np.ndarray, i: np.ndarray) -> int:
 @njit(cache=True, nogil=True)
 def _tail(mj: tuple, f: np.ndarray, i: np.ndarray, n_substeps: int) -> int:
     """The rest of a tick: eq. 5 + DLS to the servos, then the physics."""
-    warnings = mj[5]
     if not command(mj, f, i):
         return Stop.NON_FINITE
-    before = 0
-    for w in _RESET_WARNINGS:
-        before += warnings[w]
+    time = mj[5]
+    before_s = time[0]
     for _ in range(n_substeps):
         mj_step(i[M_ADDRESS], i[D_ADDRESS])
-    after = 0
-    for w in _RESET_WARNINGS:
-        after += warnings[w]
-    return Stop.UNSTABLE if after != before else Stop.RAN
+    # MuJoCo resets the data, time included, when qpos, qvel or qacc go bad (its warnings say which)
+    return Stop.UNSTABLE if time[0] <= before_s else Stop.RAN
 
 
 @njit(cache=True, nogil=True)
@@ -616,7 +632,7 @@ def run_ticks(mj: tuple, f: np.ndarray, i: np.ndarray, n_ticks: int, n_substeps:
         if stop != Stop.RAN:
             i[STOP] = stop
             return k + 1
-        if mj[6][0] >= until_s:
+        if mj[5][0] >= until_s:
             return k + 1
     return n_ticks
 

@@ -5,7 +5,7 @@ A robot server and a console call this at their start, so that no first command 
 
 import time
 
-from robot_sim.behaviors import Dither, behavior_for
+from robot_sim.behaviors import behavior_for
 from robot_sim.params import DitherParams, GripperParams, MonitorSpec, PtwlParams, RweParams
 from robot_sim.sim import Simulation
 
@@ -26,10 +26,7 @@ def warm_up() -> float:
     ctl.measure()
     ctl.command()
     for params in _BEHAVIORS:
-        behavior = behavior_for(params)
-        sim.run_behavior(behavior, max_seconds=0.1)
-        if isinstance(behavior, Dither):
-            behavior.progress(ctl)
+        sim.run_behavior(behavior_for(params), max_seconds=0.1)
     sim.start(behavior_for(_BEHAVIORS[0]))
     sim.step()
     sim.hold_position()

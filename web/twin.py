@@ -138,8 +138,10 @@ class GroundTwin:
         return self.latest
 
     def _keep(self, sim_time: float, port_position: Any) -> None:
-        """Called after every physics step: the lock only when one is due (every RECORD_S), and
-        then asked again under it (a state's arrival may have forgotten the predictions)."""
+        """Called after each stretch of steps, which run_to ends on every instant a prediction is
+        due (`next_due_s`, read without the lock like `due`; once forgotten, the next is kept at
+        the stretch's end, at most RECORD_S late): the lock only when one is due, and then asked
+        again under it (a state's arrival may have forgotten the predictions)."""
         if not self._judge.due(sim_time):  # only this thread records
             return
         with self._lock:

@@ -36,7 +36,8 @@ class PredictionJudge:
         return not last or sim_time >= last[0] + RECORD_S
 
     def next_due_s(self) -> float:
-        """[s] the sim time from which the next prediction is kept (`due`): -inf if none is kept."""
+        """[s] the sim time from which the next prediction is kept (`due`): -inf if none is kept.
+        Safe without the lock, as `due` is."""
         last = self._times[-1:]
         return last[0] + RECORD_S if last else -math.inf
 

@@ -66,11 +66,6 @@ class Dither(Behavior):
         torsional = p.mode == "torsional"
         ctl.i[tick.DITHER_MODE] = tick.DITHER_TORSIONAL if torsional else tick.DITHER_TRANSLATIONAL
 
-    def progress(self, ctl: AdmittanceController) -> float:
-        """How far the port has gone along the axis in the commanded direction [m] (while it
-        runs, or at its end before another behavior starts)."""
-        return float(tick.dither_progress(ctl.mj, ctl.f, ctl.i))
-
     def exit_for(self, ctl: AdmittanceController, stop: int) -> ExitCondition:
         if stop == tick.Stop.WRENCH_BREACH:
             p = self.params
