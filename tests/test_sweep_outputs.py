@@ -163,7 +163,13 @@ def test_ctrl_c_keeps_whole_rows_and_the_same_command_finishes_the_sweep(
         "2",
     ]
     cmd += ["--think", "1", "--workers", "1", "--out", str(tmp_path)]
-    process = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    # As from a terminal, where Ctrl-C is never ignored: a test run started in the background of
+    # a non-interactive shell inherits SIGINT ignored, and Python then keeps it ignored.
+    inherited = signal.signal(signal.SIGINT, signal.SIG_DFL)
+    try:
+        process = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    finally:
+        signal.signal(signal.SIGINT, inherited)
     csv_path = tmp_path / "trials.csv"
     # Interrupted as the second row lands: its progress line follows the row's write at once, and
     # a blocking read wakes on it (a sweep of 8 trials is about 6 s with the compiled loop, so a
