@@ -5,7 +5,7 @@ server paces it to real time, sweeps do not.
 
 Per control period (control_dt = n_substeps * physics_dt), compiled (tick.py):
     measure                  compensated wrench from the sensor
-    move_attractor           the behavior moves the attractor, may end with an exit condition
+    _move_attractor          the behavior moves the attractor, may end with an exit condition
     command                  eq. 5 + DLS -> joint-velocity servo commands
     mj_step x n_substeps     physics with those commands held
 

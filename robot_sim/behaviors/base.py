@@ -115,7 +115,7 @@ _EXITS: dict[int, ExitCondition] = {
 
 class Behavior(ABC):
     """One compliant behavior. Its start sets up the attractor's motion in the controller's
-    motion block; every control tick after that, the compiled loop (tick.py, `move_attractor`)
+    motion block; every control tick after that, the compiled loop (tick.py, `_move_attractor`)
     moves the attractor and checks the exits, and `exit_for` says what its stop means."""
 
     kind: str
