@@ -23,6 +23,7 @@ class Step:
 
     params: BehaviorParams
     why: str
+    state: str = ""  # the state it is, in a machine whose states have names (robot_sim/machines)
 
 
 @dataclass(frozen=True)

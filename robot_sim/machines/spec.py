@@ -1,0 +1,418 @@
+"""An onboard state machine as data: the one model that validates a TOML file and the JSON of a
+`state_machine` command's `machine` (paper 2.1: "the subsequent state depends on the exit
+condition returned by the behavior"; FlexBE's operator-authored machines with an autonomy
+level on every transition).
+
+    start = "approach"
+    [states.approach]
+    command = { type = "ptwl", translation = [0.0, 0.0, 0.03], duration = 6.0, preset = "medium" }
+    [[states.approach.transitions]]
+    on = ["wrench_breach"]                      # the behavior's exits this transition takes
+    when = [{ measure = "travel", op = ">=", value = 0.0285 }]   # guards on the report
+    to = "relieve"                              # a state, or `completed` / `failed`
+    autonomy = "high"                           # above the run's: the operator confirms
+
+Everything is checked before anything runs (`MachineSpec.model_validate`): the start and every
+target exist, every state is reachable, every exit a state's behavior can end with has a
+transition that takes it unconditionally (a report can never match nothing), every loop passes
+through a state with `max_visits` (a machine cannot run forever), every variable is defined
+before it is read and of the right kind, every command is valid with its numbers filled in.
+An error names the state and the field: `states.approach.transitions[1].to: ...`.
+"""
+
+import math
+from collections.abc import Iterator
+from typing import Annotated, Any, Literal, Self
+
+from pydantic import Field, TypeAdapter, ValidationError, field_validator, model_validator
+
+from robot_sim.params import DitherParams, GripperParams, PtwlParams, RweParams, StrictModel
+
+# Names: a state, variable or setting (also what a graph or a CSV cell shows).
+Name = Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]{0,31}$")]
+TERMINALS = ("completed", "failed")
+START_POSE = "start"  # the pose variable every machine has: the port where it began
+
+# FlexBE's levels, in order. A transition waits for the operator unless its level is below the
+# run's autonomy (flexbe_core: `autonomy[outcome] < autonomy_level` is allowed): `off` runs
+# itself unless autonomy is off; `full` always asks.
+Autonomy = Literal["off", "low", "high", "full"]
+AUTONOMY_LEVELS: tuple[Autonomy, ...] = ("off", "low", "high", "full")
+
+# The exits each behavior can end with (a `monitor` adds `anomaly`). A STOP (`aborted`) or a
+# fault ends the machine itself: no transition takes them.
+Exit = Literal["goal_reached", "wrench_breach", "timeout", "completed", "anomaly"]
+BEHAVIOR_EXITS: dict[str, tuple[Exit, ...]] = {
+    "ptwl": ("goal_reached", "wrench_breach", "timeout"),
+    "dither": ("goal_reached", "wrench_breach", "timeout"),
+    "rwe": ("completed", "timeout"),
+    "gripper": ("completed",),
+}
+
+MAX_STATES = 64
+MAX_TRANSITIONS = 16
+MAX_GUARDS = 8
+MAX_VISITS = 200  # a tool exchange's 100 cycles visit its states 100 times
+MAX_WHY = 300
+
+
+def waits(level: Autonomy, autonomy: Autonomy) -> bool:
+    """Whether a transition at `level` waits for the operator under a run's `autonomy`."""
+    return AUTONOMY_LEVELS.index(level) >= AUTONOMY_LEVELS.index(autonomy)
+
+
+class Ref(StrictModel):
+    """A number read from a variable or setting: value * scale + offset."""
+
+    var: Name
+    scale: Annotated[float, Field(ge=-1e3, le=1e3)] = 1.0
+    offset: Annotated[float, Field(ge=-1e3, le=1e3)] = 0.0
+
+
+Measure = Literal[
+    "travel", "tilt", "twist", "peak_force", "peak_torque", "wrench", "visits", "detail", "var"
+]
+MEASURE_DOC = (
+    "travel [m] of the port along `axis` (x, y, z) of `frame` (`tool`: the `since` pose's own axes; "
+    "`base`) since the pose variable `since`; tilt [rad]: how far the tool's z axis has swung since "
+    "`since`; twist [rad]: the turn about the tool's z axis since `since`; peak_force [N], "
+    "peak_torque [N m] over the behavior; wrench: the final wrench's `axis` (x y z rx ry rz, base "
+    "axes) [N, N m]; visits: how often `state` has been entered; detail: the report's text "
+    "(op `starts_with`); var: the variable or setting `var`"
+)
+
+
+class Reading(StrictModel):
+    """What a guard compares or a variable keeps, read from a behavior's report."""
+
+    measure: Measure = Field(description=MEASURE_DOC)
+    axis: Literal["x", "y", "z", "rx", "ry", "rz"] = Field("z", description="travel's or wrench's axis")
+    frame: Literal["tool", "base"] = Field("tool", description="travel's axes: the `since` pose's, or base")
+    since: Name = Field(START_POSE, description="the pose variable travel, tilt and twist are measured from")
+    state: Name | None = Field(None, description="visits: of this state")
+    var: Name | None = Field(None, description="var: this variable or setting")
+
+    @model_validator(mode="after")
+    def _fits(self) -> Self:
+        if self.measure == "travel" and self.axis not in ("x", "y", "z"):
+            raise ValueError(f"travel's axis must be x, y or z, got {self.axis!r}")
+        if self.measure == "visits" and self.state is None:
+            raise ValueError("visits needs `state`")
+        if self.measure == "var" and self.var is None:
+            raise ValueError("var needs `var`")
+        return self
+
+
+class Guard(Reading):
+    op: Literal["<", "<=", ">", ">=", "starts_with"] = Field(description="how the reading compares")
+    value: float | str | Ref = Field(description="a number, a Ref to a variable, or (detail) a text")
+
+    @model_validator(mode="after")
+    def _comparable(self) -> Self:
+        text = self.measure == "detail"
+        if text != (self.op == "starts_with") or text != isinstance(self.value, str):
+            raise ValueError("detail compares with op `starts_with` and a text; every other measure with < <= > >= and a number")
+        if isinstance(self.value, float) and not math.isfinite(self.value):
+            raise ValueError("value must be finite")
+        if isinstance(self.value, str) and len(self.value) > 100:
+            raise ValueError("a detail's text is at most 100 characters")
+        return self
+
+
+class Keep(StrictModel):
+    """A variable a state sets from its report: a number (a Reading) or the port's pose."""
+
+    measure: Literal[Measure, "port"] = Field(description=f"port: the port's pose at the end; else {MEASURE_DOC}")
+    axis: Literal["x", "y", "z", "rx", "ry", "rz"] = "z"
+    frame: Literal["tool", "base"] = "tool"
+    since: Name = START_POSE
+    state: Name | None = None
+    var: Name | None = None
+
+    def reading(self) -> Reading | None:
+        if self.measure == "port":
+            return None
+        return Reading.model_validate(self.model_dump(), strict=False)
+
+
+class Transition(StrictModel):
+    on: list[Exit] | None = Field(None, max_length=5, description="the exits it takes; omitted: any exit")
+    when: list[Guard] = Field(default_factory=list, max_length=MAX_GUARDS, description="all must hold")
+    to: Name = Field(description="the next state, or `completed` / `failed`")
+    autonomy: Autonomy = Field("low", description="FlexBE's level: waits for the operator unless below the run's")
+
+    def takes(self, exit_name: str) -> bool:
+        return self.on is None or exit_name in self.on
+
+
+Number = float | Ref
+
+
+class State(StrictModel):
+    command: dict[str, Any] = Field(
+        description="a behavior command (ptwl, rwe, dither, gripper: the API's parameters); any number "
+        "may be a Ref {var, scale, offset}"
+    )
+    why: str = Field("", max_length=MAX_WHY, description="what this step is for (the record says it)")
+    transitions: list[Transition] = Field(min_length=1, max_length=MAX_TRANSITIONS)
+    max_visits: int | Ref | None = Field(
+        None, description=f"entered at most this many times (<= {MAX_VISITS}); then `exhausted`"
+    )
+    exhausted: Name = Field("failed", description="where a transition into it goes once its visits are used up")
+    set: dict[Name, Keep] = Field(default_factory=dict, max_length=8, description="variables from its report")
+
+    @field_validator("command")
+    @classmethod
+    def _behavior(cls, command: dict[str, Any]) -> dict[str, Any]:
+        kind = command.get("type")
+        if kind not in BEHAVIOR_EXITS:
+            raise ValueError(f"type must be one of {', '.join(BEHAVIOR_EXITS)}, got {kind!r}")
+        for key in ("sent_at", "max_age", "valid_until_sim_time"):
+            if key in command:
+                raise ValueError(f"{key}: a step starts when the machine decides, it cannot expire")
+        return command
+
+    @property
+    def behavior(self) -> str:
+        return str(self.command["type"])
+
+    def exits(self) -> tuple[str, ...]:
+        monitored = self.command.get("monitor") is not None
+        return BEHAVIOR_EXITS[self.behavior] + (("anomaly",) if monitored else ())
+
+
+class Setting(StrictModel):
+    """A number an operator may override per run (`overrides`), within [min, max]."""
+
+    value: float
+    min: float
+    max: float
+    description: str = Field("", max_length=200)
+
+    @model_validator(mode="after")
+    def _inside(self) -> Self:
+        if not all(math.isfinite(v) for v in (self.value, self.min, self.max)):
+            raise ValueError("value, min and max must be finite")
+        if not self.min <= self.value <= self.max:
+            raise ValueError(f"value must be in [min, max] = [{self.min:g}, {self.max:g}], got {self.value:g}")
+        return self
+
+
+_COMMANDS: dict[str, TypeAdapter[Any]] = {
+    "ptwl": TypeAdapter(PtwlParams),
+    "rwe": TypeAdapter(RweParams),
+    "dither": TypeAdapter(DitherParams),
+    "gripper": TypeAdapter(GripperParams),
+}
+
+
+def filled(command: Any, value_of: Any) -> Any:
+    """`command` with every Ref (a {"var": ...} table) replaced by its number from `value_of`."""
+    if isinstance(command, dict):
+        if "var" in command:
+            ref = Ref.model_validate(command)
+            return float(value_of(ref.var)) * ref.scale + ref.offset
+        return {key: filled(value, value_of) for key, value in command.items()}
+    if isinstance(command, list):
+        return [filled(value, value_of) for value in command]
+    return command
+
+
+def command_params(command: dict[str, Any], value_of: Any) -> Any:
+    """The behavior's validated parameters, Refs filled in (pydantic.ValidationError if not)."""
+    return _COMMANDS[command["type"]].validate_python(filled(command, value_of))
+
+
+def refs_in(value: Any) -> Iterator[str]:
+    """The variables a command (or any JSON-like value) reads."""
+    if isinstance(value, dict):
+        if "var" in value:
+            yield str(value["var"])
+            return
+        for inner in value.values():
+            yield from refs_in(inner)
+    elif isinstance(value, list):
+        for inner in value:
+            yield from refs_in(inner)
+
+
+class MachineSpec(StrictModel):
+    """A whole machine: its states, where it starts, its settings."""
+
+    name: Name = Field(description="the machine's name")
+    task: Name | None = Field(None, description="the scene it is written for (its built-in's task)")
+    summary: str = Field("", max_length=MAX_WHY)
+    start: Name = Field(description="the first state")
+    settings: dict[Name, Setting] = Field(default_factory=dict, max_length=16)
+    states: dict[Name, State] = Field(min_length=1, max_length=MAX_STATES)
+
+    @model_validator(mode="after")
+    def _whole(self) -> Self:
+        problems = list(self._problems())
+        if problems:
+            raise ValueError("; ".join(problems))
+        return self
+
+    # ------------------------------------------------------------------ the checks
+    def _problems(self) -> Iterator[str]:
+        names = set(self.states)
+        if self.start not in names:
+            yield f"start: no state {self.start!r} (states: {', '.join(sorted(names))})"
+            return
+        clash = names & (set(TERMINALS) | {START_POSE} | set(self.settings))
+        for name in sorted(clash):
+            yield f"states.{name}: the name is taken (completed, failed, start and the settings' names)"
+        pose_vars = {START_POSE} | {
+            v for s in self.states.values() for v, keep in s.set.items() if keep.measure == "port"
+        }
+        number_vars = set(self.settings) | {
+            v for s in self.states.values() for v, keep in s.set.items() if keep.measure != "port"
+        }
+        for name, state in self.states.items():
+            yield from self._state_problems(name, state, names, pose_vars, number_vars)
+        reachable = self._reachable()
+        for name in sorted(names - reachable):
+            yield f"states.{name}: unreachable from {self.start!r}"
+        loop = self._unbounded_loop()
+        if loop:
+            yield (
+                f"states.{loop[0]}: the loop {' -> '.join(loop)} has no state with max_visits: "
+                "give one of them max_visits so the machine cannot run forever"
+            )
+
+    def _state_problems(
+        self, name: str, state: State, names: set[str], pose_vars: set[str], number_vars: set[str]
+    ) -> Iterator[str]:
+        here = f"states.{name}"
+        for i, t in enumerate(state.transitions):
+            if t.to not in names and t.to not in TERMINALS:
+                yield f"{here}.transitions[{i}].to: no state {t.to!r} (nor completed, failed)"
+            for j, guard in enumerate(t.when):
+                yield from self._reading_problems(f"{here}.transitions[{i}].when[{j}]", guard, names, pose_vars, number_vars)
+                if isinstance(guard.value, Ref) and guard.value.var not in number_vars:
+                    yield f"{here}.transitions[{i}].when[{j}].value: no number variable or setting {guard.value.var!r}"
+            for exit_name in t.on or ():
+                if exit_name not in state.exits():
+                    yield f"{here}.transitions[{i}].on: a {state.behavior} never ends {exit_name!r} (it ends {', '.join(state.exits())})"
+        for exit_name in state.exits():
+            if not any(t.takes(exit_name) and not t.when for t in state.transitions):
+                yield (
+                    f"{here}.transitions: nothing takes exit {exit_name!r} whatever the report says "
+                    f"(add a transition with on = [{exit_name!r}] and no `when`, or one with no `on`)"
+                )
+        if state.exhausted not in names and state.exhausted not in TERMINALS:
+            yield f"{here}.exhausted: no state {state.exhausted!r}"
+        for var, keep in state.set.items():
+            reading = keep.reading()
+            if reading is not None:
+                yield from self._reading_problems(f"{here}.set.{var}", reading, names, pose_vars, number_vars)
+        for var in refs_in(state.command):
+            if var not in number_vars:
+                yield f"{here}.command: no number variable or setting {var!r}"
+        if isinstance(state.max_visits, Ref) and state.max_visits.var not in self.settings:
+            yield f"{here}.max_visits: a Ref here must name a setting, got {state.max_visits.var!r}"
+        yield from self._command_problems(here, state)
+        for visits in self._visit_bounds(state):
+            if not 0 <= visits <= MAX_VISITS:
+                yield f"{here}.max_visits: must be in [0, {MAX_VISITS}], got {visits:g}"
+
+    def _reading_problems(
+        self, where: str, reading: Reading, names: set[str], pose_vars: set[str], number_vars: set[str]
+    ) -> Iterator[str]:
+        if reading.measure in ("travel", "tilt", "twist") and reading.since not in pose_vars:
+            yield f"{where}.since: no pose variable {reading.since!r} (start, or a state's set with measure = \"port\")"
+        if reading.measure == "visits" and reading.state not in names:
+            yield f"{where}.state: no state {reading.state!r}"
+        if reading.measure == "var" and reading.var not in number_vars:
+            yield f"{where}.var: no number variable or setting {reading.var!r}"
+
+    def _command_problems(self, here: str, state: State) -> Iterator[str]:
+        """The command, its Refs filled with the settings' values (report variables as 0)."""
+        try:
+            command_params(state.command, lambda var: self.settings[var].value if var in self.settings else 0.0)
+        except ValidationError as err:
+            for e in err.errors():
+                field = ".".join(str(p) for p in e["loc"][1:] if p != state.behavior) or "command"
+                yield f"{here}.command.{field}: {e['msg'].removeprefix('Value error, ')}"
+
+    def _visit_bounds(self, state: State) -> list[float]:
+        """max_visits at the settings' least and greatest (a Ref to a setting may be overridden)."""
+        bound = state.max_visits
+        if bound is None:
+            return []
+        if isinstance(bound, int):
+            return [bound]
+        setting = self.settings.get(bound.var)
+        if setting is None:
+            return []
+        return [setting.min * bound.scale + bound.offset, setting.max * bound.scale + bound.offset]
+
+    def successors(self, name: str) -> set[str]:
+        """Where a transition out of `name` can lead: its target, or (a bounded target's visits
+        used up) that target's `exhausted`."""
+        targets: set[str] = set()
+        for t in self.states[name].transitions:
+            target = self.states.get(t.to)
+            targets.add(t.to)
+            if target is not None and target.max_visits is not None:
+                targets.add(target.exhausted)
+        return targets & set(self.states)
+
+    def _reachable(self) -> set[str]:
+        seen, todo = {self.start}, [self.start]
+        while todo:
+            for nxt in self.successors(todo.pop()):
+                if nxt not in seen:
+                    seen.add(nxt)
+                    todo.append(nxt)
+        return seen
+
+    def _unbounded_loop(self) -> list[str]:
+        """A cycle through states without max_visits (as a path), or [] when every loop is bounded."""
+        free = {n for n, s in self.states.items() if s.max_visits is None}
+        colour: dict[str, int] = {}
+        path: list[str] = []
+
+        def visit(node: str) -> list[str]:
+            colour[node] = 1
+            path.append(node)
+            for nxt in sorted(self.successors(node) & free):
+                if colour.get(nxt) == 1:
+                    return [*path[path.index(nxt) :], nxt]
+                if nxt not in colour and (found := visit(nxt)):
+                    return found
+            colour[node] = 2
+            path.pop()
+            return []
+
+        for node in sorted(free):
+            if node not in colour and (found := visit(node)):
+                return found
+        return []
+
+    # ------------------------------------------------------------------ for the engine
+    def visits_allowed(self, name: str, settings: dict[str, float]) -> int | None:
+        bound = self.states[name].max_visits
+        if bound is None or isinstance(bound, int):
+            return bound
+        return int(round(settings[bound.var] * bound.scale + bound.offset))
+
+    def edges(self) -> list[tuple[str, str, str, Autonomy]]:
+        """(from, to, label, level) for every transition, and each bounded state's `exhausted`."""
+        found: list[tuple[str, str, str, Autonomy]] = []
+        for name, state in self.states.items():
+            for t in state.transitions:
+                label = ",".join(t.on) if t.on else "any"
+                if t.when:
+                    label += " if " + " and ".join(_guard_text(g) for g in t.when)
+                found.append((name, t.to, label, t.autonomy))
+            if state.max_visits is not None:
+                found.append((name, state.exhausted, "visits used up", "off"))
+        return found
+
+
+def _guard_text(guard: Guard) -> str:
+    value = guard.value
+    shown = f"{value.var}" if isinstance(value, Ref) else (repr(value) if isinstance(value, str) else f"{value:g}")
+    return f"{guard.measure} {guard.op} {shown}"
+
