@@ -7,11 +7,16 @@ import argparse
 import os
 import sys
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
+
+from ptwl_config import PtwlError
 
 from latency.named import named_profiles
 from latency.profile import MAX_DELAY_S
 from ptwl.experiments.sweep.spec import BACKENDS, OPERATORS, SweepSettings
+from robot_sim.machines.library import builtin_machines
+from robot_sim.machines.spec import AUTONOMY_LEVELS
 from robot_sim.params import MAX_AGE_S
 from robot_sim.policies import POLICIES
 
@@ -46,9 +51,42 @@ def _ranged(kind: type, lo: float, hi: float, unit: str = "") -> Callable[[str],
     return parse
 
 
+def _autonomies(text: str) -> list[str]:
+    names = [v.strip() for v in text.split(",") if v.strip()]
+    if not names or any(n not in AUTONOMY_LEVELS for n in names):
+        raise argparse.ArgumentTypeError(f"levels from {', '.join(AUTONOMY_LEVELS)}, got {text!r}")
+    return list(dict.fromkeys(names))
+
+
+def _machine_task(args: argparse.Namespace) -> str:
+    """The task (scene) a sweep runs: --task, or the --machine file's own; the file is read and
+    validated here, once, so a bad one is one line and exit 2 before any trial runs."""
+    from robot_sim.machines.library import read_machine
+
+    if args.machine is None:
+        if args.task is None:
+            raise SystemExit("ptwl sweep: give --task NAME or --machine FILE")
+        if args.autonomy and builtin_machines().get(args.task) is None:
+            raise SystemExit(
+                f"ptwl sweep: --autonomy: the {args.task} machine is Python (its decisions have no levels)"
+            )
+        return str(args.task)
+    try:
+        spec = read_machine(Path(args.machine))
+    except (OSError, PtwlError) as err:
+        raise SystemExit(f"ptwl sweep: --machine: {err}") from None
+    task = args.task or spec.task
+    if task is None or task not in POLICIES or (spec.task and spec.task != task):
+        raise SystemExit(
+            f"ptwl sweep: --machine {args.machine}: its `task` ({spec.task}) must name the scene, one of "
+            f"{', '.join(POLICIES)} (and agree with --task)"
+        )
+    return task
+
+
 def settings_from(args: argparse.Namespace, argv: list[str]) -> SweepSettings:
     return SweepSettings(
-        task=args.task,
+        task=_machine_task(args),
         rtts_s=args.rtt,
         trials=args.trials,
         operators=args.operator,
@@ -63,6 +101,8 @@ def settings_from(args: argparse.Namespace, argv: list[str]) -> SweepSettings:
         backend=args.backend,
         ray_address=args.ray_address,
         record=args.record,
+        autonomies=args.autonomy or [],
+        machine=str(Path(args.machine).resolve()) if args.machine else None,
         argv=argv,
     )
 
@@ -98,7 +138,19 @@ def add_sweep_parser(sub: "argparse._SubParsersAction[argparse.ArgumentParser]")
     sweep = sub.add_parser(
         "sweep", help="latency sweep: a task at several RTTs, ground-operated vs onboard, in virtual time"
     )
-    sweep.add_argument("--task", required=True, choices=list(POLICIES))
+    sweep.add_argument(
+        "--task", choices=list(POLICIES), help="the task's built-in machine (or give --machine)"
+    )
+    sweep.add_argument(
+        "--machine", help="a machine file (TOML, README: Machines) run instead; its task names the scene"
+    )
+    sweep.add_argument(
+        "--autonomy",
+        type=_autonomies,
+        default=None,
+        help="the onboard machine at each of these levels (off,low,high,full): a transition whose level is "
+        "not below it waits for the ground operator, who confirms after a think time across the link",
+    )
     sweep.add_argument("--rtt", type=_floats, default=[0.0, 1.0, 2.0, 5.0, 10.0], help="[s] e.g. 0,1,2,5,10")
     sweep.add_argument("--trials", type=_ranged(int, 1, 100_000), default=10, help="trials per grid point")
     sweep.add_argument("--operator", type=_operators, default=list(OPERATORS), help="ground,onboard")

@@ -66,6 +66,7 @@ class CommandRecord:
     sender: str | None = None
     goal: Pose | None = None
     steps: list[StepRecord] = field(default_factory=list)  # a state machine's, as they end
+    machine: dict[str, Any] | None = None  # a state machine's state, pending decision, decisions
 
 
 Listener = Callable[[CommandRecord], None]
@@ -160,6 +161,10 @@ class CommandBook:
         if self.running is not None:
             self.running.steps.append(step)
             self._on_change(self.running)
+
+    def changed(self, record: CommandRecord) -> None:
+        """`record` changed in place (a machine's decision asked or taken): announce it."""
+        self._on_change(record)
 
     def drop_queued(self, detail: str = STOP_DETAIL) -> list[CommandRecord]:
         """End every queued command `aborted` without running it."""

@@ -9,7 +9,8 @@ from typing import Annotated, Any
 from pydantic import Field, TypeAdapter
 
 from robot_sim.executor import CommandParams
-from robot_sim.params import DitherParams, GripperParams, PtwlParams, RweParams, StateMachineParams
+from robot_sim.machines.command import StateMachineParams
+from robot_sim.params import DitherParams, GripperParams, PtwlParams, RweParams
 
 Command = Annotated[
     PtwlParams | RweParams | DitherParams | GripperParams | StateMachineParams, Field(discriminator="type")

@@ -9,8 +9,8 @@ from dataclasses import dataclass
 
 from robot_sim.behaviors import BehaviorReport
 from robot_sim.command_book import CommandBook, CommandRecord
-from robot_sim.executor import CommandExecutor, Ended
-from robot_sim.params import StateMachineParams
+from robot_sim.executor import CommandExecutor, DecisionError, Ended
+from robot_sim.machines.command import DecisionRequest, StateMachineParams
 from robot_sim.policies.run import StepRecord
 from robot_sim.sim import Simulation
 
@@ -48,10 +48,40 @@ class CommandRunner:
         if running is not None and self._on_step is not None:
             self._on_step(running.id, ended.step)
         if running is not None and isinstance(running.params, StateMachineParams):
+            self._note_machine(running)
             self.book.step_done(ended.step)
         if ended.command is not None:
             self.book.finish(ended.command)
         return running, ended
+
+    def decide(self, command_id: int, request: DecisionRequest) -> CommandRecord:
+        """The operator's decision for the running machine `command_id` (DecisionError if it is
+        not running or not waiting for that decision); announced as a change of its record."""
+        running = self.book.running
+        if running is None or running.id != command_id:
+            raise DecisionError("command", f"command {command_id} is not the running state machine")
+        ended = self._executor.decide(request)
+        self._note_machine(running)
+        if ended.command is not None:
+            self.book.finish(ended.command)
+        else:
+            self.book.changed(running)
+        return running
+
+    def machine_view(self) -> dict[str, object] | None:
+        """The running machine's state, pending decision and decisions (telemetry's `machine`)."""
+        run = self._executor.run
+        running = self.book.running
+        if run is None or running is None:
+            return None
+        return {"command": running.id, **run.view()}
+
+    def _note_machine(self, record: CommandRecord) -> None:
+        run = self._executor.run
+        if run is not None:
+            record.machine = run.view()
+        elif record.machine is not None:  # it ended: keep the last view, nothing pending
+            record.machine = {**record.machine, "pending": None}
 
     def stop_all(self) -> Stopped:
         """Abort the running command, drop the queue, hold the robot where it is."""
@@ -60,4 +90,8 @@ class CommandRunner:
         report = self.sim.hold_position()  # ends the running behavior `aborted`, "stopped"
         if report is not None:
             self.behavior_ended(report)
+        elif running is not None and (ended := self._executor.stop_waiting()) is not None:
+            self._note_machine(running)  # a machine waiting for a decision: no behavior runs
+            assert ended.command is not None
+            self.book.finish(ended.command)
         return Stopped(running.id if running else None, [r.id for r in dropped])

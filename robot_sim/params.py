@@ -15,10 +15,8 @@ from pydantic import (
     Field,
     GetCoreSchemaHandler,
     GetJsonSchemaHandler,
-    ValidationError,
     ValidatorFunctionWrapHandler,
     WrapValidator,
-    field_validator,
     model_validator,
 )
 from pydantic.json_schema import JsonSchemaValue
@@ -446,34 +444,3 @@ class GripperParams(Expiring):
     duration: Annotated[float, _range(0.0, limits.MAX_GRIPPER_S, "s", lo_open=True)] = Field(
         0.5, description="[s] the jaws' travel and settling time, (0, 5]"
     )
-
-
-class StateMachineParams(Expiring):
-    """A task's onboard state machine (robot_sim/policies), run as one command."""
-
-    type: Literal["state_machine"] = Field("state_machine", description="command: state_machine")
-    task: str = Field(description="which task's state machine (GET /api/tasks lists them)")
-
-    overrides: dict[str, Any] = Field(
-        default_factory=dict,
-        description="the state machine's settings to change, e.g. {\"max_recoveries\": 0}; each task's "
-        "settings and ranges are in GET /api/tasks",
-    )
-
-    @field_validator("task")
-    @classmethod
-    def _known(cls, task: str) -> str:
-        tasks = sorted(NAMED.need(NAMED.tasks, "tasks")())
-        if task not in tasks:
-            raise ValueError(f"task must be one of {', '.join(tasks)}, got {task!r}")
-        return task
-
-    @model_validator(mode="after")
-    def _overrides_fit_the_task(self) -> Self:
-        settings_model = NAMED.need(NAMED.task_settings, "tasks")(self.task)
-        try:
-            settings_model.model_validate(self.overrides)
-        except ValidationError as err:
-            said = "; ".join(f"{'.'.join(map(str, e['loc']))}: {e['msg']}" for e in err.errors())
-            raise ValueError(f"overrides for {self.task}: {said}") from None
-        return self

@@ -160,6 +160,7 @@ def status_model(record: CommandRecord) -> CommandStatus:
         sender=record.sender,
         goal=PoseModel(**record.goal.as_dict()) if record.goal else None,
         steps=[_step_model(step) for step in record.steps],
+        machine=record.machine,
     )
 
 

@@ -14,6 +14,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from robot_sim.command_book import FutureSentAtError, QueueFullError
 from robot_sim.command_request import error_detail, field_errors
 from robot_sim.errors import UnknownNameError
+from robot_sim.executor import DecisionError
 from server.commands import IdRecordError
 
 
@@ -56,6 +57,12 @@ def install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(IdRecordError)
     async def _id_record(_: Request, exc: IdRecordError) -> JSONResponse:
         return JSONResponse({"detail": str(exc)}, status_code=503)  # nothing queued; the sim runs on
+
+    @app.exception_handler(DecisionError)
+    async def _decision(_: Request, exc: DecisionError) -> JSONResponse:
+        # 409: well-formed, but not the decision the robot is waiting for (or none is).
+        item = {"field": exc.field, "message": str(exc), "type": "decision_conflict"}
+        return JSONResponse({"detail": f"{exc.field}: {exc}", "errors": [item]}, status_code=409)
 
     @app.exception_handler(QueueFullError)
     async def _queue_full(_: Request, exc: QueueFullError) -> JSONResponse:

@@ -116,6 +116,12 @@ class CommandStatus(BaseModel):
     sender: str | None = Field(
         None, description=f"who sent it, from the `{SENDER_HEADER}` request header; null if not said"
     )
+    machine: dict[str, Any] | None = Field(
+        None,
+        description="a state machine's: its state, visits, pending decision (`pending`: what it "
+        "proposes, at what autonomy level, the report that led to it, the next behavior's parameters), "
+        "decisions waited for and how long, its last decisions",
+    )
     goal: PoseModel | None = Field(
         None,
         description="the absolute pose the robot resolved at start (a PTWL's port at start (+) its "
@@ -134,6 +140,7 @@ class MachineStepModel(BaseModel):
     )
     params: dict[str, Any] = Field(description="its parameters, defaults filled in")
     why: str = Field(description="why the state machine chose it, from the previous step's report")
+    state: str = Field("", description="its state's name, in a machine written as data (else empty)")
     exit: str = Field(description="how it ended")
     started_at: float = Field(description="[s] sim time")
     ended_at: float = Field(description="[s] sim time")
@@ -463,6 +470,12 @@ class FrameRequest(BaseModel):
 COMMAND_STATUS_RESPONSES: dict[int | str, dict[str, Any]] = {
     200: {"description": "the command", "links": {"StateAfterCommandStatus": _STATE_LINK}},
     **NOT_FOUND_RESPONSES,
+}
+
+DECISION_RESPONSES: dict[int | str, dict[str, Any]] = {
+    **COMMAND_STATUS_RESPONSES,
+    409: _error("that command is not the running machine, or that decision is not the pending one"),
+    422: _error("the body does not validate (the error names the field)"),
 }
 
 FRAME_CONFLICT_RESPONSES: dict[int | str, dict[str, Any]] = {

@@ -21,6 +21,7 @@ from robot_sim.behaviors.base import Pose
 from robot_sim.command_book import CommandRecord
 from robot_sim.command_runner import CommandRunner
 from robot_sim.geometry import moving_bodies, scene_geometry
+from robot_sim.machines.command import DecisionRequest
 from robot_sim.policies.run import StepRecord
 from robot_sim.scenes import get_scene
 from robot_sim.sim import Simulation
@@ -95,6 +96,12 @@ class SimRunner:
         with self.book.held():
             stopped = self._commands.stop_all()
         return {"aborted": stopped.aborted, "dropped": stopped.dropped}
+
+    def decide(self, command_id: int, request: DecisionRequest) -> None:
+        """(simulation thread) The operator's decision for a waiting machine."""
+        with self.book.held():
+            self._commands.decide(command_id, request)
+        self.latest_state = self._state()
 
     def reset_scene(
         self, name: str, seed: int | None, gripper_close_s: float | None = None
@@ -209,6 +216,7 @@ class SimRunner:
         return {
             **state_fields(self.sim, self._moving),
             "active_command": running.id if running else None,
+            "machine": self._commands.machine_view(),
             "instance": self.book.instance,
             "frames_rev": self._frames_rev,
         }

@@ -14,7 +14,8 @@ import websockets.sync.client
 
 from ptwl.launcher import ServiceProcess, free_port, running_server
 from robot_sim.behaviors import ExitCondition, behavior_for
-from robot_sim.params import RweParams, StateMachineParams
+from robot_sim.machines.command import StateMachineParams
+from robot_sim.params import RweParams
 from robot_sim.policies.run import StepRecord
 from robot_sim.sim import Simulation
 from server.client import RobotClient

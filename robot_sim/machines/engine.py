@@ -123,6 +123,15 @@ class SpecPolicy(Policy):
             return Finish(proposal.target == "completed", f"{how}: {proposal.target}")
         return self._enter(proposal.target, how)
 
+    def preview(self, proposal: Proposal, report: BehaviorReport) -> dict[str, Any] | None:
+        """The parameters of the behavior `proposal` leads to (None when it ends the machine)."""
+        if proposal.target in TERMINALS:
+            return None
+        numbers, _ = self._kept(report)
+        return dict(
+            command_params(self.spec.states[proposal.target].command, numbers.__getitem__).model_dump()
+        )
+
     # ----------------------------------------------------------------- parts
     def _enter(self, name: str, how: str) -> Step:
         self.state = name
@@ -188,7 +197,12 @@ class SpecPolicy(Policy):
 
 
 def _label(guard: Guard) -> str:
-    where = {"travel": f"{guard.frame} {guard.axis}", "wrench": guard.axis, "visits": guard.state, "var": guard.var}
+    where = {
+        "travel": f"{guard.frame} {guard.axis}",
+        "wrench": guard.axis,
+        "visits": guard.state,
+        "var": guard.var,
+    }
     inner = where.get(guard.measure)
     return f"{guard.measure}({inner})" if inner else guard.measure
 

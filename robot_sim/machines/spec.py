@@ -69,9 +69,7 @@ class Ref(StrictModel):
     offset: Annotated[float, Field(ge=-1e3, le=1e3)] = 0.0
 
 
-Measure = Literal[
-    "travel", "tilt", "twist", "peak_force", "peak_torque", "wrench", "visits", "detail", "var"
-]
+Measure = Literal["travel", "tilt", "twist", "peak_force", "peak_torque", "wrench", "visits", "detail", "var"]
 MEASURE_DOC = (
     "travel [m] of the port along `axis` (x, y, z) of `frame` (`tool`: the `since` pose's own axes; "
     "`base`) since the pose variable `since`; tilt [rad]: how far the tool's z axis has swung since "
@@ -111,7 +109,9 @@ class Guard(Reading):
     def _comparable(self) -> Self:
         text = self.measure == "detail"
         if text != (self.op == "starts_with") or text != isinstance(self.value, str):
-            raise ValueError("detail compares with op `starts_with` and a text; every other measure with < <= > >= and a number")
+            raise ValueError(
+                "detail compares with op `starts_with` and a text; every other measure with < <= > >= and a number"
+            )
         if isinstance(self.value, float) and not math.isfinite(self.value):
             raise ValueError("value must be finite")
         if isinstance(self.value, str) and len(self.value) > 100:
@@ -122,7 +122,9 @@ class Guard(Reading):
 class Keep(StrictModel):
     """A variable a state sets from its report: a number (a Reading) or the port's pose."""
 
-    measure: Literal[Measure, "port"] = Field(description=f"port: the port's pose at the end; else {MEASURE_DOC}")
+    measure: Literal[Measure, "port"] = Field(
+        description=f"port: the port's pose at the end; else {MEASURE_DOC}"
+    )
     axis: Literal["x", "y", "z", "rx", "ry", "rz"] = "z"
     frame: Literal["tool", "base"] = "tool"
     since: Name = START_POSE
@@ -139,7 +141,9 @@ class Transition(StrictModel):
     on: list[Exit] | None = Field(None, max_length=5, description="the exits it takes; omitted: any exit")
     when: list[Guard] = Field(default_factory=list, max_length=MAX_GUARDS, description="all must hold")
     to: Name = Field(description="the next state, or `completed` / `failed`")
-    autonomy: Autonomy = Field("low", description="FlexBE's level: waits for the operator unless below the run's")
+    autonomy: Autonomy = Field(
+        "low", description="FlexBE's level: waits for the operator unless below the run's"
+    )
 
     def takes(self, exit_name: str) -> bool:
         return self.on is None or exit_name in self.on
@@ -158,7 +162,9 @@ class State(StrictModel):
     max_visits: int | Ref | None = Field(
         None, description=f"entered at most this many times (<= {MAX_VISITS}); then `exhausted`"
     )
-    exhausted: Name = Field("failed", description="where a transition into it goes once its visits are used up")
+    exhausted: Name = Field(
+        "failed", description="where a transition into it goes once its visits are used up"
+    )
     set: dict[Name, Keep] = Field(default_factory=dict, max_length=8, description="variables from its report")
 
     @field_validator("command")
@@ -194,7 +200,9 @@ class Setting(StrictModel):
         if not all(math.isfinite(v) for v in (self.value, self.min, self.max)):
             raise ValueError("value, min and max must be finite")
         if not self.min <= self.value <= self.max:
-            raise ValueError(f"value must be in [min, max] = [{self.min:g}, {self.max:g}], got {self.value:g}")
+            raise ValueError(
+                f"value must be in [min, max] = [{self.min:g}, {self.max:g}], got {self.value:g}"
+            )
         return self
 
 
@@ -288,7 +296,9 @@ class MachineSpec(StrictModel):
             if t.to not in names and t.to not in TERMINALS:
                 yield f"{here}.transitions[{i}].to: no state {t.to!r} (nor completed, failed)"
             for j, guard in enumerate(t.when):
-                yield from self._reading_problems(f"{here}.transitions[{i}].when[{j}]", guard, names, pose_vars, number_vars)
+                yield from self._reading_problems(
+                    f"{here}.transitions[{i}].when[{j}]", guard, names, pose_vars, number_vars
+                )
                 if isinstance(guard.value, Ref) and guard.value.var not in number_vars:
                     yield f"{here}.transitions[{i}].when[{j}].value: no number variable or setting {guard.value.var!r}"
             for exit_name in t.on or ():
@@ -320,7 +330,7 @@ class MachineSpec(StrictModel):
         self, where: str, reading: Reading, names: set[str], pose_vars: set[str], number_vars: set[str]
     ) -> Iterator[str]:
         if reading.measure in ("travel", "tilt", "twist") and reading.since not in pose_vars:
-            yield f"{where}.since: no pose variable {reading.since!r} (start, or a state's set with measure = \"port\")"
+            yield f'{where}.since: no pose variable {reading.since!r} (start, or a state\'s set with measure = "port")'
         if reading.measure == "visits" and reading.state not in names:
             yield f"{where}.state: no state {reading.state!r}"
         if reading.measure == "var" and reading.var not in number_vars:
@@ -329,7 +339,9 @@ class MachineSpec(StrictModel):
     def _command_problems(self, here: str, state: State) -> Iterator[str]:
         """The command, its Refs filled with the settings' values (report variables as 0)."""
         try:
-            command_params(state.command, lambda var: self.settings[var].value if var in self.settings else 0.0)
+            command_params(
+                state.command, lambda var: self.settings[var].value if var in self.settings else 0.0
+            )
         except ValidationError as err:
             for e in err.errors():
                 field = ".".join(str(p) for p in e["loc"][1:] if p != state.behavior) or "command"
@@ -413,6 +425,9 @@ class MachineSpec(StrictModel):
 
 def _guard_text(guard: Guard) -> str:
     value = guard.value
-    shown = f"{value.var}" if isinstance(value, Ref) else (repr(value) if isinstance(value, str) else f"{value:g}")
+    shown = (
+        f"{value.var}"
+        if isinstance(value, Ref)
+        else (repr(value) if isinstance(value, str) else f"{value:g}")
+    )
     return f"{guard.measure} {guard.op} {shown}"
-

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from robot_sim.behaviors import BehaviorParams, BehaviorReport, ExitCondition, Pose
-from robot_sim.policies.base import Finish, Policy, Step
+from robot_sim.policies.base import Decision, Finish, Policy, Step
 
 
 @dataclass(frozen=True)
@@ -17,6 +17,7 @@ class StepRecord:
     params: BehaviorParams
     why: str
     report: BehaviorReport
+    state: str = ""  # its state's name, in a machine written as data
 
     def as_dict(self) -> dict[str, Any]:
         r = self.report
@@ -25,6 +26,7 @@ class StepRecord:
             "behavior": self.params.type,
             "params": self.params.model_dump(),
             "why": self.why,
+            "state": self.state,
             "exit": r.exit.value,
             "started_at": r.started_at,
             "ended_at": r.ended_at,
@@ -52,14 +54,26 @@ class Machine:
 
     def advance(self, report: BehaviorReport) -> Step | None:
         """The running step ended with `report`: the next step, or None when the machine ended."""
-        assert self.current is not None, "advance() before start()"
-        self.steps.append(StepRecord(len(self.steps), self.current.params, self.current.why, report))
+        if self.record(report):
+            return None
+        return self.take(self.policy.next(report))
+
+    def record(self, report: BehaviorReport) -> bool:
+        """Keep the running step's `report`; True when that ended the machine (STOP, a fault):
+        then nothing is left to decide."""
+        assert self.current is not None, "record() before start()"
+        self.steps.append(
+            StepRecord(len(self.steps), self.current.params, self.current.why, report, self.current.state)
+        )
         self.current = None
         if report.exit in (ExitCondition.ABORTED, ExitCondition.FAULT):  # STOP, or the physics
             why = f"step {len(self.steps)} ({report.behavior}) ended {report.exit}"
             self._end(Finish(False, why), report.exit)
-            return None
-        decision = self.policy.next(report)
+            return True
+        return False
+
+    def take(self, decision: Decision) -> Step | None:
+        """Act on the decision about the last step: the next step, or None when it ended."""
         if isinstance(decision, Finish):
             self._end(decision, ExitCondition.COMPLETED if decision.completed else ExitCondition.FAILED)
             return None
@@ -68,6 +82,10 @@ class Machine:
             return None
         self.current = decision
         return decision
+
+    def stop(self, why: str) -> None:
+        """Ended between steps (an operator's stop at a decision): `aborted`."""
+        self._end(Finish(False, why), ExitCondition.ABORTED)
 
     def _end(self, finish: Finish, exit_condition: ExitCondition) -> None:
         self.finish, self.exit = finish, exit_condition

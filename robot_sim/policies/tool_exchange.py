@@ -21,14 +21,19 @@ from pydantic import Field
 from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
 from robot_sim.params import PtwlParams
 from robot_sim.policies.base import Decision, Finish, Policy, PolicySettings, Step
-from robot_sim.policies.tool_retrieval import ToolRetrieval
-from robot_sim.policies.tool_stowage import ToolStowage
+from robot_sim.machines.engine import SpecPolicy, policy_class
+from robot_sim.machines.library import builtin_machines
 from robot_sim.scenes.tool_exchange import EXCHANGES_WANTED
 
 PARK_OFFSET_M = (0.0, 0.12, 0.06)  # [m] base axes, from the start: aside and up, clear of the bay
 OVER_M = 0.04  # [m] over the start, on the way back: the legs above the bay's 40 mm walls
 CARRY_S = 3.0  # [s] each carry move
 STEPS_PER_CYCLE = 15  # retrieval 5, park, carry back and lower 3, stowage 6, return 1
+
+
+# The retrieval and stowage machines are the built-in files (robot_sim/machines/builtin).
+RETRIEVAL = policy_class(builtin_machines()["tool_retrieval"])
+STOWAGE = policy_class(builtin_machines()["tool_stowage"])
 
 
 class ToolExchangeSettings(PolicySettings):
@@ -50,7 +55,7 @@ class ToolExchange(Policy):
         super().__init__(overrides)
         self.home: Pose | None = None
         self.exchanges = 0  # whole cycles the machine believes done
-        self.phase: ToolRetrieval | ToolStowage | None = None  # the machine running, if one is
+        self.phase: SpecPolicy | None = None  # the machine running, if one is
         self.move = ""  # the carry move running, when no machine is
 
     def max_steps(self) -> int:
@@ -58,7 +63,7 @@ class ToolExchange(Policy):
 
     def first(self, port: Pose) -> Step:
         self.home = port
-        return self._run(ToolRetrieval(), port)
+        return self._run(RETRIEVAL(), port)
 
     def next(self, report: BehaviorReport) -> Decision:
         if self.phase is not None:
@@ -77,12 +82,12 @@ class ToolExchange(Policy):
         if self.move == "carry back":
             return self._carry("lower", report.final_port, self._home(), "down to where the stowage starts")
         if self.move == "lower":
-            return self._run(ToolStowage(), report.final_port)
-        return self._run(ToolRetrieval(), report.final_port)  # back from a return
+            return self._run(STOWAGE(), report.final_port)
+        return self._run(RETRIEVAL(), report.final_port)  # back from a return
 
-    def _after(self, finished: ToolRetrieval | ToolStowage, report: BehaviorReport) -> Decision:
+    def _after(self, finished: SpecPolicy, report: BehaviorReport) -> Decision:
         self.phase = None
-        if isinstance(finished, ToolRetrieval):
+        if finished.task == "tool_retrieval":
             park = self._offset(PARK_OFFSET_M)
             return self._carry(
                 "park", report.final_port, park, "the tool out: to the parking pose, untwisting"
@@ -92,7 +97,7 @@ class ToolExchange(Policy):
             return Finish(True, f"{self.exchanges} exchanges: each tool retrieved, parked and stowed")
         return self._carry("return", report.final_port, self._home(), "stowed: back over the knob")
 
-    def _run(self, machine: ToolRetrieval | ToolStowage, port: Pose) -> Step:
+    def _run(self, machine: SpecPolicy, port: Pose) -> Step:
         self.phase, self.move = machine, ""
         return self._in_cycle(machine.first(port))
 

@@ -7,10 +7,12 @@ from fastapi.exceptions import RequestValidationError
 
 from ptwl.guard.disconnect import client_gone
 from robot_sim.command_request import Command
-from robot_sim.params import GripperParams, PtwlParams, StateMachineParams
+from robot_sim.machines.command import DecisionRequest, StateMachineParams
+from robot_sim.params import GripperParams, PtwlParams
 from robot_sim.ptwl_warnings import ptwl_warnings
 from server.models import (
     COMMAND_STATUS_RESPONSES,
+    DECISION_RESPONSES,
     SENDER_DOC,
     SENDER_HEADER,
     SENDER_PATTERN,
@@ -59,7 +61,7 @@ async def submit_command(
         """(simulation thread) Checked against the scene, its frames and the gains as they are,
         and queued in the same step: a frame cannot vanish between its check and the queue."""
         sim = runner.sim
-        if isinstance(params, StateMachineParams) and sim.scene.name != params.task:
+        if isinstance(params, StateMachineParams) and params.task and sim.scene.name != params.task:
             message = f"the {params.task} state machine needs scene {params.task}; {sim.scene.name} is loaded"
             raise RequestValidationError([{"loc": ("body", "task"), "msg": message, "type": "value_error"}])
         if isinstance(params, GripperParams) and sim.scene.gripper is None:
@@ -101,6 +103,22 @@ async def get_command(
         found = book.get(command_id)
         assert found is not None  # a record is kept while it is not done, and we just saw it
     return found
+
+
+@router.post("/commands/{command_id}/decision", response_model=CommandStatus, responses=DECISION_RESPONSES)
+async def decide(command_id: int, decision: DecisionRequest, book: Book, runner: Runner) -> CommandStatus:
+    """Answer the running state machine's pending decision (telemetry's `machine.pending`, or
+    this command's `machine.pending`): confirm the proposed transition, decide by another
+    outcome, force a state, or stop the machine. `decision` names which one, so an answer that
+    arrives after the robot has moved on is refused (409), never applied to a later one."""
+
+    def answer() -> CommandStatus:
+        runner.decide(command_id, decision)
+        found = book.get(command_id)
+        assert found is not None  # it was running a moment ago, on this thread
+        return found
+
+    return await on_sim_thread(runner, answer)
 
 
 @router.post("/stop", response_model=StopResult, responses=SIM_RESPONSES)

@@ -18,12 +18,28 @@ which the operator gives up: the link is slower than the age it allows.
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
+from pathlib import Path
 
-from ptwl.experiments.sweep.robot import Accepted, Done, Outcome, Post, Query, Reply, Request, Status
+from ptwl.experiments.sweep.robot import (
+    Accepted,
+    Asked,
+    Decide,
+    Done,
+    Event,
+    Outcome,
+    Post,
+    Query,
+    Refused,
+    Reply,
+    Request,
+    Status,
+)
 from ptwl.experiments.sweep.spec import TrialSpec
 from robot_sim.behaviors import BehaviorReport, Pose
 from robot_sim.executor import CommandParams
-from robot_sim.params import GripperParams, RweParams, StateMachineParams
+from robot_sim.machines.command import DecisionRequest, StateMachineParams
+from robot_sim.machines.library import read_machine
+from robot_sim.params import GripperParams, RweParams
 from robot_sim.policies import Machine, policy_for
 
 PATIENCE_S = 2.0  # [s] past a behavior's latest possible end (and the round trip) before asking
@@ -83,15 +99,20 @@ class Operator(ABC):
             return self._next[0]
         return self.pending.deadline_s if self.pending is not None else None
 
-    def on_message(self, now: float, message: Reply | Done) -> list[Request]:
+    def on_message(self, now: float, message: Reply | Event) -> list[Request]:
         pending = self.pending
-        if pending is None or message.tag != pending.tag or isinstance(message, Accepted):
+        if pending is None or message.tag != pending.tag or isinstance(message, Accepted | Refused):
             return []  # stale (an answer to an earlier question), or only an acknowledgement
         if isinstance(message, Done):
             return self._outcome(now, message.outcome)
+        if isinstance(message, Asked):
+            return self._asked(now, message.number)
         assert isinstance(message, Status)
         if message.outcome is not None:
             return self._outcome(now, message.outcome)
+        if message.pending is not None:
+            pending.deadline_s = now + self._patience(pending.params)
+            return self._asked(now, message.pending)
         if message.known:  # still queued or running: ask again later
             pending.deadline_s = now + self._patience(pending.params)
             return []
@@ -107,6 +128,10 @@ class Operator(ABC):
             self.requeries += 1
             pending.deadline_s = now + self.spec.rtt_s + PATIENCE_S
             return [Query(pending.tag)]
+        return []
+
+    def _asked(self, now: float, number: int) -> list[Request]:
+        """The running machine waits for decision `number` (only a supervised machine's does)."""
         return []
 
     @property
@@ -183,10 +208,58 @@ class GroundOperator(Operator):
 
 
 class OnboardOperator(Operator):
-    """One state-machine command; the robot runs each next step at once."""
+    """One state-machine command; the robot runs each next step at once, or (an autonomy level
+    below some transitions') waits for the operator, who confirms each decision asked after a
+    think time, across the link."""
+
+    def __init__(self, spec: TrialSpec, epoch_s: float) -> None:
+        super().__init__(spec, epoch_s)
+        self._think = spec.rng("think")
+        self._decision: tuple[float, int] | None = None  # (when to answer, which decision)
+        self._answered: set[int] = set()
+        self.decisions_answered = 0
 
     def begin(self, now: float, port: Pose) -> list[Request]:
-        return [self._post(now, StateMachineParams(task=self.spec.task))]
+        machine = read_machine(Path(self.spec.machine)) if self.spec.machine else None
+        params = (
+            StateMachineParams(machine=machine)
+            if machine is not None
+            else StateMachineParams(task=self.spec.task)
+        )
+        if self.spec.autonomy is not None:
+            params = params.model_copy(update={"autonomy": self.spec.autonomy})
+        return [self._post(now, params)]
+
+    @property
+    def wake_at(self) -> float | None:
+        base = super().wake_at
+        if self._decision is None:
+            return base
+        return self._decision[0] if base is None else min(base, self._decision[0])
+
+    def on_wake(self, now: float) -> list[Request]:
+        decision = self._decision
+        if decision is not None and decision[0] <= now and self.pending is not None:
+            self._decision = None
+            return [self._decide(decision[1])]
+        return super().on_wake(now)
+
+    def _asked(self, now: float, number: int) -> list[Request]:
+        if number in self._answered:  # still pending after the answer: the answer was lost
+            return [self._decide(number)]
+        if self._decision is None or self._decision[1] != number:
+            think = self._think.uniform(*THINK_SPREAD) * self.spec.think_s
+            self.think_s += think
+            self._decision = (now + think, number)
+        return []
+
+    def _decide(self, number: int) -> Decide:
+        assert self.pending is not None
+        if number not in self._answered:
+            self._answered.add(number)
+            self.decisions_answered += 1
+        self.commands_sent += 1
+        return Decide(self.pending.tag, DecisionRequest(decision=number, choice="confirm"))
 
     def _ended(self, now: float, report: BehaviorReport) -> None:
         self._finish(now, report.exit.value, report.detail)

@@ -15,8 +15,9 @@ from dataclasses import dataclass, field
 from robot_sim.behaviors import BehaviorReport
 from robot_sim.command_book import CommandBook, CommandRecord
 from robot_sim.command_runner import CommandRunner, Stopped
-from robot_sim.executor import CommandParams
+from robot_sim.executor import CommandParams, DecisionError
 from robot_sim.limits import COMMAND_HISTORY_MAX, COMMAND_QUEUE_MAX
+from robot_sim.machines.command import DecisionRequest
 from robot_sim.policies.run import StepRecord
 from robot_sim.sim import UNBOUNDED_TICKS, Simulation
 
@@ -42,8 +43,33 @@ class Query:
 
 
 @dataclass(frozen=True)
+class Decide:
+    """POST /api/commands/{id}/decision: the operator's answer to a waiting machine's decision."""
+
+    tag: str
+    request: DecisionRequest
+
+
+@dataclass(frozen=True)
 class Accepted:
     tag: str
+
+
+@dataclass(frozen=True)
+class Refused:
+    """A decision the robot would not take (409: another one is pending, or none)."""
+
+    tag: str
+    why: str
+
+
+@dataclass(frozen=True)
+class Asked:
+    """The command event of a machine that now waits for decision `number` (a WebSocket
+    message: it can be lost; a status answer says it too)."""
+
+    tag: str
+    number: int
 
 
 @dataclass(frozen=True)
@@ -68,6 +94,7 @@ class Status:
     tag: str
     known: bool
     outcome: Outcome | None  # set when done
+    pending: int | None = None  # a running machine's decision waiting for the operator
 
 
 @dataclass(frozen=True)
@@ -78,8 +105,9 @@ class Done:
     outcome: Outcome
 
 
-Request = Post | Query
-Reply = Accepted | Status
+Request = Post | Query | Decide
+Reply = Accepted | Status | Refused
+Event = Done | Asked
 
 
 @dataclass
@@ -102,6 +130,13 @@ class Figures:
         return torque / ticks if ticks else 0.0
 
 
+def _pending(record: CommandRecord | None) -> int | None:
+    """The number of the decision a running machine's record says waits, if one does."""
+    machine = record.machine if record is not None else None
+    pending = machine.get("pending") if machine is not None else None
+    return int(pending["decision"]) if pending else None
+
+
 class VirtualRobot:
     def __init__(self, task: str, seed: int) -> None:
         self.sim = Simulation(task, seed)
@@ -117,13 +152,24 @@ class VirtualRobot:
         self.on_step: Callable[[int, StepRecord], None] | None = None
         # Every command's record by its tag, in the order they arrived (the tag is its sender).
         self.submitted: dict[str, CommandRecord] = {}
-        self._ended: list[CommandRecord] = []  # ended, not announced yet, in the order they ended
+        # Events not announced yet, in the order they happened: a command's end, a decision asked.
+        self._outbox: list[Event] = []
+        self._asked: set[tuple[int, int]] = set()  # (command id, decision number) announced
+        self.decisions_waited = 0  # decisions the machines waited for the operator on
+        self.decision_wait_s = 0.0  # [s] sim time they waited, in total
 
     def _changed(self, record: CommandRecord) -> None:
         if self.on_record is not None:
             self.on_record(record)
+        assert record.sender is not None
         if record.status == "done":  # run, or not: expired, dropped by STOP, refused at its start
-            self._ended.append(record)
+            if record.machine is not None:
+                self.decisions_waited += int(record.machine["decisions_waited"])
+                self.decision_wait_s += float(record.machine["waited_s"])
+            self._outbox.append(Done(record.sender, Outcome.of(record)))
+        elif (number := _pending(record)) is not None and (record.id, number) not in self._asked:
+            self._asked.add((record.id, number))  # announced once, whatever else changes
+            self._outbox.append(Asked(record.sender, number))
 
     def _step_ended(self, command_id: int, step: StepRecord) -> None:
         if self.on_step is not None:
@@ -156,11 +202,21 @@ class VirtualRobot:
                 self.submitted[request.tag] = self.book.submit(request.params, sender=request.tag)
             return Accepted(request.tag)
         record = self.submitted.get(request.tag)  # its exit is set as it ends
+        if isinstance(request, Decide):
+            if record is None:
+                return Refused(request.tag, "no such command")
+            try:
+                self.commands.decide(record.id, request.request)
+            except DecisionError as err:
+                return Refused(request.tag, str(err))
+            return Accepted(request.tag)
         if record is None:
             return Status(request.tag, False, None)
-        return Status(request.tag, True, Outcome.of(record) if record.status == "done" else None)
+        if record.status == "done":
+            return Status(request.tag, True, Outcome.of(record))
+        return Status(request.tag, True, None, _pending(record))
 
-    def tick(self, until_s: float = -math.inf) -> Done | None:
+    def tick(self, until_s: float = -math.inf) -> Event | None:
         """One control period, or more up to `until_s` [s] sim time while nothing else can happen:
         start the next queued command if idle, step; a command that ended (run or not: the server
         announces each as it ends), one a tick, in the order they ended."""
@@ -174,22 +230,17 @@ class VirtualRobot:
         ctl = sim.controller
         if counting:  # the compiled loop adds each tick's |f| and |tau| to the sums (tick.py)
             ctl.set_norm_sums(figures.force_sum, figures.torque_sum)
-        report, ran = sim.advance(1 if self._ended else UNBOUNDED_TICKS, until_s)
+        report, ran = sim.advance(1 if self._outbox else UNBOUNDED_TICKS, until_s)
         if counting:  # from the controller they were added on: a fault has since made a new one
             figures.force_sum, figures.torque_sum = ctl.norm_sums()
             figures.ticks += ran
         if report is not None:
             figures.at_last_end = (figures.force_sum, figures.torque_sum, figures.ticks)
             figures.steps.append(self.commands.behavior_ended(report)[1].step)
-        if not self._ended:
-            return None
-        # The oldest; any others follow on the next ticks (the sweeps' operators keep one command
-        # in flight, so there is one).
-        record = self._ended.pop(0)
-        assert record.sender is not None
-        return Done(record.sender, Outcome.of(record))
+        # The oldest event; any others follow on the next ticks.
+        return self._outbox.pop(0) if self._outbox else None
 
-    def tick_until(self, until_s: float) -> Done | None:
+    def tick_until(self, until_s: float) -> Event | None:
         """One tick, then more while nothing else can happen before `until_s` (the next instant
         the link or the operator acts): a quiet stretch costs the physics and no bookkeeping.
         Stops at the first command that ends."""

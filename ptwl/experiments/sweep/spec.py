@@ -10,7 +10,7 @@ from latency.profile import LinkProfile
 OPERATORS = ("ground", "onboard")
 BACKENDS = ("local", "ray")
 # The fields that name a trial: a row of trials.csv with the same values is the same trial.
-KEY_FIELDS = ("task", "operator", "rtt_s", "jitter_s", "loss", "seed")
+KEY_FIELDS = ("task", "operator", "autonomy", "rtt_s", "jitter_s", "loss", "seed")
 
 
 @dataclass(frozen=True)
@@ -24,15 +24,26 @@ class TrialSpec:
     think_s: float = 2.0  # [s] an operator's mean think time between commands: uniform 0.5-1.5x
     profile: str | None = None  # a named link profile whose blackouts apply (its delays do not)
     max_age_s: float | None = None  # [s] every command's max_age (None: commands never expire)
+    # The onboard machine's autonomy level (None: the command's default, `full`; the ground
+    # operator has none), and a machine file run instead of the task's built-in one.
+    autonomy: str | None = None
+    machine: str | None = None
+
+    @property
+    def arm(self) -> str:
+        """Who runs the task, as reports group it: ground, onboard, or onboard at a level."""
+        return self.operator if self.autonomy is None else f"{self.operator} ({self.autonomy})"
 
     def key(self) -> tuple[str, ...]:
         """As written in trials.csv (repr of floats: exact)."""
         return tuple(cell(getattr(self, name)) for name in KEY_FIELDS)
 
     def file_stem(self) -> str:
-        """The trial's file name without suffix, from its key: lid_ground_rtt2.0_j0.0_l0.0_s3."""
-        task, operator, rtt, jitter, loss, seed = self.key()
-        return f"{task}_{operator}_rtt{rtt}_j{jitter}_l{loss}_s{seed}"
+        """The trial's file name without suffix, from its key: lid_ground_rtt2.0_j0.0_l0.0_s3
+        (an autonomy level after the operator: plug_onboard-low_rtt2.0_...)."""
+        task, operator, autonomy, rtt, jitter, loss, seed = self.key()
+        who = f"{operator}-{autonomy}" if autonomy else operator
+        return f"{task}_{who}_rtt{rtt}_j{jitter}_l{loss}_s{seed}"
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -82,11 +93,17 @@ def grid(
     think_s: float,
     profile: str | None,
     max_age_s: float | None = None,
+    autonomies: list[str] | None = None,
+    machine: str | None = None,
 ) -> list[TrialSpec]:
-    """Every trial, in the order the outputs list them: operator, RTT, then seed."""
+    """Every trial, in the order the outputs list them: operator (onboard at each autonomy
+    level given), RTT, then seed."""
     return [
-        TrialSpec(task, operator, rtt, jitter_s, loss, seed + i, think_s, profile, max_age_s)
+        TrialSpec(
+            task, operator, rtt, jitter_s, loss, seed + i, think_s, profile, max_age_s, autonomy, machine
+        )
         for operator in operators
+        for autonomy in (list[str | None](autonomies or [None]) if operator == "onboard" else [None])
         for rtt in rtts_s
         for i in range(trials)
     ]
@@ -109,6 +126,8 @@ class SweepSettings:
     backend: str = "local"
     ray_address: str | None = None
     record: bool = False  # one MCAP per trial in out/recordings (only the trials this run runs)
+    autonomies: list[str] = field(default_factory=list)  # the onboard operator's levels (none: default)
+    machine: str | None = None  # a machine file run instead of the task's built-in one
     argv: list[str] = field(default_factory=list)
 
     def specs(self) -> list[TrialSpec]:
@@ -123,4 +142,6 @@ class SweepSettings:
             self.think_s,
             self.profile,
             self.max_age_s,
+            self.autonomies,
+            self.machine,
         )

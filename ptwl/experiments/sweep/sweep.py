@@ -32,7 +32,7 @@ from ptwl.experiments.sweep.table import RowWriter, read_rows, row_key, write_so
 
 # What a trial is: a directory's trials are only reusable under the same values.
 RECORDINGS = "recordings"  # --record: one MCAP per trial, named by TrialSpec.file_stem()
-TRIAL_SETTINGS = ("task", "jitter_s", "loss", "think_s", "seed", "profile", "max_age_s")
+TRIAL_SETTINGS = ("task", "jitter_s", "loss", "think_s", "seed", "profile", "max_age_s", "machine")
 
 
 class Progress:

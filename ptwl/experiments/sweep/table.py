@@ -33,6 +33,7 @@ def _bool(text: str) -> bool:
 COLUMNS: list[tuple[str, Callable[[str], Any], str]] = [
     ("task", str, "the task (its scene and state machine)"),
     ("operator", str, "ground (move-and-wait, one behavior per round trip) or onboard (one state machine)"),
+    ("autonomy", _optional_str, "onboard: the machine's autonomy level (off, low, high, full; empty: full)"),
     ("rtt_s", float, "[s] round trip, half each way"),
     ("jitter_s", float, "[s] uniform +- on each message's delay"),
     ("loss", float, "chance an event (WebSocket message) is lost"),
@@ -40,6 +41,7 @@ COLUMNS: list[tuple[str, Callable[[str], Any], str]] = [
     ("think_s", float, "[s] the operator's mean think time between commands"),
     ("profile", _optional_str, "named link profile whose blackouts applied"),
     ("max_age_s", _optional_float, "[s] every command's max_age (empty: commands never expire)"),
+    ("machine", _optional_str, "the machine file run instead of the task's built-in one (empty: built-in)"),
     ("success", _bool, "the scene's predicate when the operator learned the outcome"),
     ("progress", float, "the predicate's progress value then (depth, angle, error: its unit)"),
     ("end", str, "how the machine ended: completed, failed, aborted, fault, timed_out; expired: gave up"),
@@ -50,6 +52,12 @@ COLUMNS: list[tuple[str, Callable[[str], Any], str]] = [
     ("wait_cycles", int, "commands the operator waited for (move-and-wait cycles)"),
     ("requeries", int, "status questions after a report was overdue (onboard: every 10 s)"),
     ("unstarted", int, "commands that ended without running (expired), each sent again"),
+    (
+        "decisions_waited",
+        int,
+        "decisions the onboard machine waited for the operator on (its autonomy level)",
+    ),
+    ("decision_wait_s", float, "[s] on the robot, waiting for those decisions in total"),
     ("think_total_s", float, "[s] thought in total"),
     ("max_force_n", float, "[N] peak |f| on the port"),
     ("mean_force_n", float, "[N] mean |f| over the task time"),

@@ -23,7 +23,7 @@ from latency.delay_line import Dropped
 from latency.profile import LinkProfile
 from ptwl.experiments.sweep.operators import Operator, operator_for
 from ptwl.experiments.sweep.recorder import TrialRecorder
-from ptwl.experiments.sweep.robot import VIRTUAL_EPOCH_S, Done, Reply, Request, VirtualRobot
+from ptwl.experiments.sweep.robot import VIRTUAL_EPOCH_S, Event, Reply, Request, VirtualRobot
 from ptwl.experiments.sweep.spec import TrialSpec
 from robot_sim.policies.run import trial_metrics
 
@@ -87,11 +87,11 @@ def simulate(spec: TrialSpec, profile: LinkProfile | None = None, record: Path |
         for request in requests:  # HTTP: a reliable channel, lost only in a `drop` blackout
             admit("uplink", REQUEST_BYTES, "http", partial(inbox.append, request), lossy=False)
 
-    def down(message: Reply | Done) -> None:
+    def down(message: Reply | Event) -> None:
         def deliver() -> None:
             up(operator.on_message(link.clock.now, message))
 
-        lossy = isinstance(message, Done)  # an event on the telemetry socket; a reply is HTTP
+        lossy = isinstance(message, Event)  # an event on the telemetry socket; a reply is HTTP
         admit("downlink", EVENT_BYTES, "ws" if lossy else "http", deliver, lossy)
 
     up(operator.begin(0.0, sim.state().port))
@@ -141,6 +141,8 @@ def row(trial: Trial) -> dict[str, Any]:
         "wait_cycles": operator.wait_cycles,
         "requeries": operator.requeries,
         "unstarted": operator.unstarted,
+        "decisions_waited": robot.decisions_waited,
+        "decision_wait_s": robot.decision_wait_s,
         "think_total_s": operator.think_s,
         "max_force_n": metrics["max_force_n"],
         "mean_force_n": figures.mean_force_n(),
