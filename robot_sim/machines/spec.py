@@ -142,7 +142,8 @@ class Transition(StrictModel):
     when: list[Guard] = Field(default_factory=list, max_length=MAX_GUARDS, description="all must hold")
     to: Name = Field(description="the next state, or `completed` / `failed`")
     autonomy: Autonomy = Field(
-        "low", description="FlexBE's level: waits for the operator unless below the run's"
+        "off",
+        description="FlexBE's level: waits for the operator unless below the run's (`off`: only when it is off)",
     )
 
     def takes(self, exit_name: str) -> bool:

@@ -9,7 +9,16 @@ import matplotlib
 matplotlib.use("Agg")  # files only: no display on a server or a worker
 import matplotlib.pyplot as plt
 
-from ptwl.experiments.sweep.summary import Fit, break_even_s, fits, groups, interval
+from ptwl.experiments.sweep.summary import (
+    Fit,
+    SweetSpot,
+    arm,
+    break_even_s,
+    fits,
+    groups,
+    interval,
+    sweet_spots,
+)
 
 COLOURS = {"ground": "tab:orange", "onboard": "tab:blue"}
 
@@ -74,6 +83,64 @@ def _success_plot(rows: list[dict[str, Any]], path: Path) -> None:
     plt.close(fig)
 
 
+def _sweet_spot_plot(spots: list[SweetSpot], path: Path) -> None:
+    """Median task time and success against RTT per autonomy level; the sweet spot starred."""
+    fig, (time_ax, success_ax) = plt.subplots(2, 1, figsize=(6.4, 6.0), dpi=110, sharex=True)
+    names = dict.fromkeys(x.level for s in spots for x in s.levels)
+    for name in names:
+        at = [(s.rtt_s, x) for s in spots for x in s.levels if x.level == name]
+        rtts = [rtt for rtt, _ in at]
+        line = time_ax.plot(rtts, [x.task_time_median_s for _, x in at], "o-", label=f"autonomy {name}")
+        success_ax.plot(rtts, [100.0 * x.success_rate for _, x in at], "o-", color=line[0].get_color())
+    best = [(s.rtt_s, x) for s in spots for x in s.levels if x.level == s.best]
+    time_ax.plot(
+        [rtt for rtt, _ in best],
+        [x.task_time_median_s for _, x in best],
+        "*",
+        markersize=16,
+        color="gold",
+        markeredgecolor="black",
+        label="sweet spot",
+    )
+    time_ax.set_ylabel("task time, median [s]")
+    success_ax.set_ylabel("success [%]")
+    success_ax.set_ylim(-5, 105)
+    success_ax.set_xlabel("round trip [s]")
+    for ax in (time_ax, success_ax):
+        ax.grid(alpha=0.3)
+    time_ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def sweet_spot_lines(spots: list[SweetSpot]) -> list[str]:
+    """The sweet-spot table (markdown): per RTT, each level's success and median time, and the
+    level with the best time at or above the reference level's success rate."""
+    if not spots:
+        return []
+    names = list(dict.fromkeys(x.level for s in spots for x in s.levels))
+    head = "| RTT [s] | " + " | ".join(f"{n}: success, time [s], waits" for n in names) + " | sweet spot |"
+    lines = [head, "|---|" + "---|" * (len(names) + 1)]
+    for s in spots:
+        by = {x.level: x for x in s.levels}
+        cells = [
+            f"{100.0 * by[n].success_rate:.0f} %, {by[n].task_time_median_s:.1f}, {by[n].decisions_waited_mean:.1f}"
+            if n in by
+            else "-"
+            for n in names
+        ]
+        lines.append(f"| {s.rtt_s:g} | " + " | ".join(cells) + f" | **{s.best}** |")
+    reference = spots[0].reference
+    lines += [
+        "",
+        f"The sweet spot at each RTT: the level with the least median task time among those whose success "
+        f"rate is at least autonomy `{reference}`'s (waits: decisions the machine waited for the operator "
+        "on, mean per trial).",
+    ]
+    return lines
+
+
 FLAT_S = 0.1  # [s] a task time that changes less than this over the RTTs measured is flat
 
 
@@ -126,9 +193,24 @@ def write_report(directory: Path, rows: list[dict[str, Any]], table: list[dict[s
     )
     _success_plot(rows, directory / "success_vs_rtt.png")
     _interval_plot(rows, "max_force_n", "peak force [N]", directory / "peak_force_vs_rtt.png", {})
+    spots = sweet_spots(rows)
+    if spots:
+        _sweet_spot_plot(spots, directory / "autonomy_vs_rtt.png")
+    autonomy = (
+        [
+            "## Autonomy levels: the sweet spot",
+            "",
+            "![task time and success per autonomy level vs RTT](autonomy_vs_rtt.png)",
+            "",
+            *sweet_spot_lines(spots),
+            "",
+        ]
+        if spots
+        else []
+    )
     task = rows[0]["task"]
     rtts = ", ".join(f"{r:g}" for r in sorted({r["rtt_s"] for r in rows}))
-    operators = ", ".join(dict.fromkeys(r["operator"] for r in rows))
+    operators = ", ".join(dict.fromkeys(arm(r) for r in rows))
     text = [
         f"# Latency sweep: {task}",
         "",
@@ -140,6 +222,7 @@ def write_report(directory: Path, rows: list[dict[str, Any]], table: list[dict[s
         "",
         *findings(rows),
         "",
+        *autonomy,
         "## Task time against round trip",
         "",
         "![task time vs RTT](task_time_vs_rtt.png)",

@@ -31,8 +31,7 @@ class TrialSpec:
 
     @property
     def arm(self) -> str:
-        """Who runs the task, as reports group it: ground, onboard, or onboard at a level."""
-        return self.operator if self.autonomy is None else f"{self.operator} ({self.autonomy})"
+        return arm_of(self.operator, self.autonomy)
 
     def key(self) -> tuple[str, ...]:
         """As written in trials.csv (repr of floats: exact)."""
@@ -71,6 +70,11 @@ class TrialSpec:
         return base.merged(
             {"uplink": self.rtt_s / 2.0, "downlink": self.rtt_s / 2.0, "jitter": jitter, "loss": loss}
         )
+
+
+def arm_of(operator: str, autonomy: str | None) -> str:
+    """Who runs the task, as reports group trials: ground, onboard, or onboard at a level."""
+    return operator if not autonomy else f"{operator} ({autonomy})"
 
 
 def cell(value: object) -> str:

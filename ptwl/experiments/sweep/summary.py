@@ -8,6 +8,8 @@ from typing import Any
 
 import numpy as np
 
+from ptwl.experiments.sweep.spec import arm_of
+from robot_sim.machines.spec import AUTONOMY_LEVELS
 from robot_sim.policies.run import paper_rows
 
 PTWL_EXITS = ("timeout", "goal_reached", "wrench_breach")
@@ -19,11 +21,16 @@ def as_trial_metrics(row: dict[str, Any]) -> dict[str, Any]:
     return {**row, "run_time_s": row["task_time_s"], "ptwl": {e: row[f"ptwl_{e}"] for e in PTWL_EXITS}}
 
 
+def arm(row: dict[str, Any]) -> str:
+    """The row's operator, with the onboard machine's autonomy level when the sweep set one."""
+    return arm_of(row["operator"], row.get("autonomy"))
+
+
 def groups(rows: list[dict[str, Any]]) -> dict[tuple[str, float], list[dict[str, Any]]]:
-    """Rows by (operator, RTT), in the order they first appear (grid order)."""
+    """Rows by (operator or onboard at a level, RTT), in the order they first appear (grid order)."""
     out: dict[tuple[str, float], list[dict[str, Any]]] = {}
     for row in rows:
-        out.setdefault((row["operator"], row["rtt_s"]), []).append(row)
+        out.setdefault((arm(row), row["rtt_s"]), []).append(row)
     return out
 
 
@@ -66,8 +73,8 @@ def _r2(x: list[float], y: list[float], slope: float, intercept: float) -> float
 
 def fits(rows: list[dict[str, Any]], y: str = "task_time_s") -> dict[str, Fit]:
     out = {}
-    for operator in dict.fromkeys(r["operator"] for r in rows):
-        mine = [r for r in rows if r["operator"] == operator]
+    for operator in dict.fromkeys(arm(r) for r in rows):
+        mine = [r for r in rows if arm(r) == operator]
         fit = Fit.of([r["rtt_s"] for r in mine], [r[y] for r in mine])
         if fit is not None:
             out[operator] = fit
@@ -100,9 +107,56 @@ def summary_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 "operator_time_median_s": interval([r["operator_time_s"] for r in mine])[0],
                 "commands_sent_mean": float(np.mean([r["commands_sent"] for r in mine])),
                 "mean_force_n": float(np.mean([r["mean_force_n"] for r in mine])),
+                "decisions_waited_mean": float(np.mean([r["decisions_waited"] for r in mine])),
                 **{name: value for name, value in paper.items() if name != "Trials"},
             }
         )
+    return out
+
+
+@dataclass(frozen=True)
+class LevelAt:
+    """One autonomy level at one RTT: success, the median task time, decisions waited."""
+
+    level: str
+    success_rate: float
+    task_time_median_s: float
+    decisions_waited_mean: float
+
+
+@dataclass(frozen=True)
+class SweetSpot:
+    """Per RTT: every level measured and the sweet spot, the level with the best (least)
+    median task time among those at least as successful as full autonomy (the most autonomous
+    level measured, when `full` was not)."""
+
+    rtt_s: float
+    levels: list[LevelAt]
+    reference: str  # the level whose success rate the others must match
+    best: str | None  # None: no level matched it (cannot happen: the reference itself does)
+
+
+def sweet_spots(rows: list[dict[str, Any]]) -> list[SweetSpot]:
+    """The sweet spot at each RTT over the onboard rows with an autonomy level ([] if none)."""
+    leveled = [r for r in rows if r["operator"] == "onboard" and r.get("autonomy")]
+    out = []
+    for rtt in sorted({r["rtt_s"] for r in leveled}):
+        levels = []
+        for level in AUTONOMY_LEVELS:
+            mine = [r for r in leveled if r["rtt_s"] == rtt and r["autonomy"] == level]
+            if mine:
+                levels.append(
+                    LevelAt(
+                        level,
+                        sum(r["success"] for r in mine) / len(mine),
+                        interval([r["task_time_s"] for r in mine])[0],
+                        float(np.mean([r["decisions_waited"] for r in mine])),
+                    )
+                )
+        reference = levels[-1]  # the most autonomous measured: full, when it was
+        fit = [x for x in levels if x.success_rate >= reference.success_rate]
+        best = min(fit, key=lambda x: x.task_time_median_s).level if fit else None
+        out.append(SweetSpot(rtt, levels, reference.level, best))
     return out
 
 
