@@ -4,6 +4,7 @@ across a slow link (and then check that the robot's answers agree)."""
 
 from typing import Any
 
+from robot_sim.machines.library import builtin_machines
 from robot_sim.policies import POLICIES
 from robot_sim.presets import default_presets
 from robot_sim.scenes import SCENES
@@ -33,6 +34,7 @@ def task_catalog() -> list[TaskInfoModel]:
             name=name,
             summary=policy.summary,
             settings=policy.settings_model.model_json_schema()["properties"],
+            machine=spec.model_dump(exclude_none=True) if (spec := builtin_machines().get(name)) else None,
         )
         for name, policy in POLICIES.items()
     ]

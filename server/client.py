@@ -149,6 +149,11 @@ class RobotClient:
         body = {"type": type, "sent_at": time.time(), **params}
         return CommandAccepted(**self._request("POST", "/api/commands", json=body, headers=headers))
 
+    def decide(self, command_id: int, **decision: Any) -> CommandStatus:
+        """Answer a running state machine's pending decision (`decision`, `choice`, and `outcome`
+        or `state` as the choice needs): POST /api/commands/{id}/decision."""
+        return CommandStatus(**self._request("POST", f"/api/commands/{command_id}/decision", json=decision))
+
     def ptwl(self, **params: Any) -> CommandAccepted:
         return self.command("ptwl", **params)
 

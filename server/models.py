@@ -292,6 +292,11 @@ class TaskInfoModel(BaseModel):
         description="what a state_machine command's `overrides` may set: JSON schema per setting "
         "(type, default, range, description)"
     )
+    machine: dict[str, Any] | None = Field(
+        None,
+        description="the machine as data (README: Machines), its transitions' autonomy levels with it; "
+        "null: a Python machine, which runs at autonomy `full` only",
+    )
 
 
 class GeomModel(BaseModel):

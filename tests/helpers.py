@@ -7,9 +7,13 @@ from typing import Any
 
 import numpy as np
 
-from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
+from robot_sim.behaviors import BehaviorParams, BehaviorReport, ExitCondition, Pose
 from robot_sim.gains import Gains
-from robot_sim.policies import run_onboard
+from robot_sim.machines.engine import SpecPolicy
+from robot_sim.machines.library import builtin_machines
+from robot_sim.machines.spec import command_params
+from robot_sim.params import PtwlParams
+from robot_sim.policies import POLICIES, run_onboard
 from robot_sim.pose_math import rotate_world
 from robot_sim.sim import Simulation
 
@@ -63,6 +67,31 @@ def report_down(
     return BehaviorReport(
         behavior, exit_condition, 0.0, 1.0, peak, 0.1, (0.0,) * 6, Pose((x, y, z - depth_m), DOWN_WXYZ)
     )
+
+
+def machine(task: str, overrides: dict[str, object] | None = None) -> SpecPolicy:
+    """A fresh run of `task`'s built-in machine file (POLICIES[task]), `overrides` its settings."""
+    policy = POLICIES[task](overrides)
+    assert isinstance(policy, SpecPolicy), f"{task} is not a machine file"
+    return policy
+
+
+def state_params(task: str, state: str, **values: float) -> BehaviorParams:
+    """The validated command of `state` in `task`'s built-in machine file, every Ref filled from
+    `values` (a setting overridden, or a variable a report would have set), else the setting's
+    default."""
+    spec = builtin_machines()[task]
+    params: BehaviorParams = command_params(
+        spec.states[state].command, lambda var: values[var] if var in values else spec.settings[var].value
+    )
+    return params
+
+
+def ptwl_state(task: str, state: str, **values: float) -> PtwlParams:
+    """`state_params` of a PTWL state."""
+    params = state_params(task, state, **values)
+    assert isinstance(params, PtwlParams), params
+    return params
 
 
 def _onboard(task_seed: tuple[str, int]) -> dict[str, Any]:

@@ -5,9 +5,12 @@ import pytest
 
 from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose, Ptwl
 from robot_sim.params import PtwlParams, RweParams
-from robot_sim.policies import Finish, Step, berthing, run_onboard
+from robot_sim.policies import Finish, Step, run_onboard
 from robot_sim.sim import Simulation
-from tests.helpers import DOWN_WXYZ, ten_seeds
+from tests.helpers import DOWN_WXYZ, machine, ptwl_state, ten_seeds
+
+# robot_sim/machines/builtin/berthing.toml: |tau_z| at first contact under this is aligned.
+TAU_THRESH_NM = 0.2
 
 
 def at(
@@ -25,36 +28,40 @@ def at(
 def test_policy_slides_toward_the_side_the_torque_at_first_contact_gives(
     tau_z: float, toward_y: float
 ) -> None:
-    policy = berthing.Berthing()
+    policy = machine("berthing")
     approach = policy.first(Pose((0.378, 0.0, 0.28), DOWN_WXYZ))
-    assert approach.params == berthing.APPROACH and approach.params.preset == "planar"  # type: ignore[union-attr]
+    assert approach.params == ptwl_state("berthing", "approach") and approach.params.preset == "planar"
     slide = policy.next(at(0.40, ExitCondition.WRENCH_BREACH, tau_z))
     assert isinstance(slide, Step) and isinstance(slide.params, PtwlParams)
+    assert slide.state == ("slide_left" if toward_y > 0 else "slide_right")
     dx, dy, _ = slide.params.translation
     assert dy == pytest.approx(toward_y * 0.012) and dx > 0.0  # sideways, keeping forward pressure
 
 
 def test_policy_presses_until_a_press_no_longer_advances_then_completes() -> None:
-    policy = berthing.Berthing()
+    policy = machine("berthing")
     policy.first(Pose((0.378, 0.0, 0.28), DOWN_WXYZ))
     press = policy.next(at(0.40, ExitCondition.WRENCH_BREACH, 0.05))  # aligned: press at once
-    assert isinstance(press, Step) and press.params == berthing.PRESS
+    assert isinstance(press, Step) and press.params == ptwl_state("berthing", "press")
     relieve = policy.next(at(0.404, ExitCondition.WRENCH_BREACH))  # advanced 4 mm: again
-    assert isinstance(relieve, Step) and isinstance(relieve.params, RweParams)
+    assert isinstance(relieve, Step) and isinstance(relieve.params, RweParams) and relieve.state == "relieve"
     again = policy.next(at(0.404, ExitCondition.COMPLETED, behavior="rwe"))
-    assert isinstance(again, Step) and again.params == berthing.PRESS
+    assert isinstance(again, Step) and again.params == ptwl_state("berthing", "press")
     last = policy.next(at(0.4045, ExitCondition.WRENCH_BREACH))  # 0.5 mm: seated
-    assert isinstance(last, Step) and isinstance(last.params, RweParams)
+    assert isinstance(last, Step) and isinstance(last.params, RweParams) and last.state == "done"
     done = policy.next(at(0.4045, ExitCondition.COMPLETED, behavior="rwe"))
-    assert isinstance(done, Finish) and done.completed and "2 presses" in done.why
+    assert isinstance(done, Finish) and done.completed and done.why.startswith("done ended completed")
+    assert policy.visits["press"] == 2  # seated after 2 presses
 
 
 def test_policy_fails_without_contact_and_after_too_many_presses() -> None:
-    lost = berthing.Berthing()
+    lost = machine("berthing")
     lost.first(Pose((0.378, 0.0, 0.28), DOWN_WXYZ))
     nothing = lost.next(at(0.438, ExitCondition.GOAL_REACHED))
-    assert isinstance(nothing, Finish) and not nothing.completed and "no contact" in nothing.why
-    creeping = berthing.Berthing({"max_recoveries": 1})
+    # No contact: the approach ended without a breach.
+    assert isinstance(nothing, Finish) and not nothing.completed
+    assert nothing.why.startswith("approach ended goal_reached")
+    creeping = machine("berthing", {"max_recoveries": 1})
     creeping.first(Pose((0.378, 0.0, 0.28), DOWN_WXYZ))
     x = 0.40
     creeping.next(at(x, ExitCondition.WRENCH_BREACH, 0.05))
@@ -62,7 +69,9 @@ def test_policy_fails_without_contact_and_after_too_many_presses() -> None:
         x += 0.003
         assert isinstance(creeping.next(at(x, ExitCondition.WRENCH_BREACH)), Step)  # relieve
         decision = creeping.next(at(x, ExitCondition.COMPLETED, behavior="rwe"))
-    assert isinstance(decision, Finish) and not decision.completed and "2 presses" in decision.why
+    # Still advancing after 2 presses: the third is more than max_recoveries + 1 allows.
+    assert isinstance(decision, Finish) and not decision.completed
+    assert decision.why.startswith("relieve ended completed") and creeping.visits["press"] == 2
 
 
 # -------------------------------------------------------------------------- the scene
@@ -74,9 +83,9 @@ def test_the_torque_at_first_contact_points_to_the_posts_side_and_a_press_alone_
     the posts are off to, and the clamps are not seated."""
     sim = Simulation("berthing", seed=seed)
     posts_y = float(sim.model.body("posts").pos[1])
-    report = sim.run_behavior(Ptwl(berthing.APPROACH))
+    report = sim.run_behavior(Ptwl(ptwl_state("berthing", "approach")))
     assert report.exit is ExitCondition.WRENCH_BREACH
-    assert abs(report.final_wrench[5]) > berthing.TAU_THRESH_NM and report.final_wrench[5] * posts_y > 0.0
+    assert abs(report.final_wrench[5]) > TAU_THRESH_NM and report.final_wrench[5] * posts_y > 0.0
     assert not sim.task().success and sim.task().progress > 0.002
 
 
@@ -94,11 +103,14 @@ def test_posts_out_of_reach_fail_the_machine() -> None:
     sim = Simulation("berthing")
     sim.model.body("posts").pos[0] += 0.1
     run = run_onboard("berthing", sim=sim)
-    assert run.end == "failed" and not run.success and "no contact" in run.why
+    # No contact: the approach ended without a breach.
+    assert run.end == "failed" and not run.success and run.why.startswith("approach ended")
+    assert "wrench_breach" not in run.why
 
 
 def test_ten_seeds_berth_the_sled_onboard() -> None:
     runs = ten_seeds("berthing")
     assert all(r["success"] and r["end"] == "completed" for r in runs), [(r["seed"], r["why"]) for r in runs]
     assert all(r["max_force_n"] <= 20.0 for r in runs), [r["max_force_n"] for r in runs]
-    assert sum("slide toward" in r["steps"][1]["why"] for r in runs) >= 8  # most need the slide
+    slid = sum(r["steps"][1]["state"] in ("slide_left", "slide_right") for r in runs)
+    assert slid >= 8  # most need the slide

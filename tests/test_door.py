@@ -9,10 +9,10 @@ import pytest
 
 from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose, Ptwl
 from robot_sim.params import PtwlParams, RweParams
-from robot_sim.policies import Finish, Step, door, run_onboard
+from robot_sim.policies import Finish, Step, run_onboard
 from robot_sim.scenes.door import door_angle_rad
 from robot_sim.sim import Simulation
-from tests.helpers import DOWN_WXYZ, ten_seeds
+from tests.helpers import DOWN_WXYZ, machine, ptwl_state, ten_seeds
 
 HOME = Pose((0.378, 0.0, 0.2765), DOWN_WXYZ)
 
@@ -35,7 +35,7 @@ def report(
 
 # -------------------------------------------------------------------------- the policy
 def test_policy_turns_opens_closes_lets_go_checks_and_completes() -> None:
-    policy = door.Door()
+    policy = machine("door")
     turn = policy.first(HOME)
     assert isinstance(turn.params, PtwlParams) and turn.params.rotation == [0.0, 0.0, 0.5]
     opening = policy.next(report(posed(0.48)))
@@ -53,42 +53,48 @@ def test_policy_turns_opens_closes_lets_go_checks_and_completes() -> None:
     assert isinstance(check, Step) and check.params.torque_threshold == 1.0  # type: ignore[union-attr]
     last = policy.next(report(posed(0.0, 0.015), ExitCondition.WRENCH_BREACH))
     assert isinstance(last, Step) and isinstance(last.params, RweParams) and "latched" in last.why
+    assert last.state == "done"
     done = policy.next(report(posed(0.0, 0.015), ExitCondition.COMPLETED, "rwe"))
-    assert isinstance(done, Finish) and done.completed and "51.0 deg" in done.why
+    assert isinstance(done, Finish) and done.completed and done.why.startswith("done ended completed")
+    assert f"{math.degrees(policy.numbers['opened']):.1f}" == "51.0"  # opened to 51.0 deg
 
 
 def test_policy_fails_on_a_stuck_knob_a_door_that_will_not_open_and_a_latch_that_does_not_hold() -> None:
-    stuck = door.Door()
+    stuck = machine("door")
     stuck.first(HOME)
     gave_up = stuck.next(report(posed(0.1), ExitCondition.WRENCH_BREACH))
-    assert isinstance(gave_up, Finish) and not gave_up.completed and "knob" in gave_up.why
-    heavy = door.Door({"max_recoveries": 1})
+    # The knob turned short of 0.4 rad.
+    assert isinstance(gave_up, Finish) and not gave_up.completed and gave_up.why.startswith("turn ended")
+    heavy = machine("door", {"max_recoveries": 1})
     heavy.first(HOME)
     heavy.next(report(posed(0.48)))
     again = heavy.next(report(posed(0.48, 0.5), ExitCondition.WRENCH_BREACH))
     assert isinstance(again, Step) and again.params.rotation[1] == pytest.approx(-(0.95 - 0.5))  # type: ignore[union-attr]
     no = heavy.next(report(posed(0.48, 0.6), ExitCondition.WRENCH_BREACH))
-    assert isinstance(no, Finish) and not no.completed and "opened only" in no.why
-    loose = door.Door()
+    # Opened only partway, after the one more try max_recoveries allows.
+    assert isinstance(no, Finish) and not no.completed and no.why.startswith("open_again ended")
+    assert heavy.visits["open_again"] == 1
+    loose = machine("door")
     loose.first(HOME)
     for pose in (posed(0.48), posed(0.48, 0.9), posed(0.48, 0.01), posed(0.48, 0.01), posed(0.0, 0.01)):
         assert isinstance(loose.next(report(pose)), Step)
     opened = loose.next(report(posed(0.0, 0.2)))  # the check pulled it open
-    assert isinstance(opened, Finish) and not opened.completed and "did not hold" in opened.why
+    # The latch did not hold: the check moved the door.
+    assert isinstance(opened, Finish) and not opened.completed and opened.why.startswith("check ended")
 
 
 # -------------------------------------------------------------------------- the scene
 def open_by(sim: Simulation, preset: str) -> float:
     """Turn the knob, then swing 0.95 rad about the base -y with `preset`'s gains: the door's angle."""
     sim.run_behavior(Ptwl(PtwlParams(rotation=[0.0, 0.0, 0.5], duration=2.0, preset="medium")))
-    sim.run_behavior(Ptwl(door.swing(0.95, 3.0).model_copy(update={"preset": preset})))
+    sim.run_behavior(Ptwl(ptwl_state("door", "open").model_copy(update={"preset": preset})))
     return door_angle_rad(sim)
 
 
 def test_without_turning_the_knob_the_latch_holds_the_door_shut() -> None:
     """The negative case: the same swing, the knob untouched: the door stays shut."""
     sim = Simulation("door", seed=2)
-    sim.run_behavior(Ptwl(door.swing(0.95, 3.0)))
+    sim.run_behavior(Ptwl(ptwl_state("door", "open")))
     assert abs(door_angle_rad(sim)) < math.radians(1.0) and not sim.task().success
 
 
@@ -96,7 +102,7 @@ def test_a_knob_turned_short_of_20_degrees_leaves_the_door_latched() -> None:
     """The latch's threshold: 0.2 rad (11 deg) of knob turn, then the same swing: still shut."""
     sim = Simulation("door", seed=2)
     sim.run_behavior(Ptwl(PtwlParams(rotation=[0.0, 0.0, 0.2], duration=2.0, preset="medium")))
-    sim.run_behavior(Ptwl(door.swing(0.95, 3.0)))
+    sim.run_behavior(Ptwl(ptwl_state("door", "open")))
     assert abs(door_angle_rad(sim)) < math.radians(1.0) and not sim.task().success
 
 
@@ -117,7 +123,8 @@ def test_a_knob_that_will_not_turn_fails_and_is_not_counted() -> None:
     sim = Simulation("door")
     sim.model.jnt_range[sim.model.joint("knob_turn").id] = (0.0, 0.1)
     run = run_onboard("door", sim=sim)
-    assert run.end == "failed" and not run.success and "knob turned only" in run.why
+    # The knob turned only as far as its range: short of 0.4 rad.
+    assert run.end == "failed" and not run.success and run.why.startswith("turn ended")
 
 
 def test_ten_seeds_open_and_shut_the_door_onboard_wherever_the_hinge_is() -> None:

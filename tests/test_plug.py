@@ -6,53 +6,59 @@ import pytest
 
 from robot_sim.behaviors import ExitCondition, Pose, Ptwl
 from robot_sim.params import PtwlParams, RweParams
-from robot_sim.policies import Finish, Step, plug, run_onboard
+from robot_sim.policies import Finish, Step, run_onboard
 from robot_sim.scenes import fixture_offset, get_scene
 from robot_sim.sim import Simulation
-from tests.helpers import DOWN_WXYZ, report_down, ten_seeds
+from tests.helpers import DOWN_WXYZ, machine, report_down, state_params, ten_seeds
 
 HOME = Pose((0.378, 0.0, 0.2785), DOWN_WXYZ)
+# robot_sim/machines/builtin/plug.toml: the slides' attractor this far below the face (~6 N down).
+SLIDE_PRESS_M = 0.003
 
 
 def slide_y_m(decision: object) -> float:
     assert isinstance(decision, Step) and isinstance(decision.params, PtwlParams), decision
     assert decision.params.frame == "base"
     dx, dy, dz = decision.params.translation
-    assert dx == 0.0 and dz == pytest.approx(-plug.SLIDE_PRESS_M)  # keeps pressing while it slides
+    assert dx == 0.0 and dz == pytest.approx(-SLIDE_PRESS_M)  # keeps pressing while it slides
     return dy
 
 
 # -------------------------------------------------------------------------- the policy
 def test_policy_slides_plus_y_then_back_minus_y_then_gives_up() -> None:
-    policy = plug.Plug()
-    assert policy.first(HOME).params == plug.APPROACH
+    policy = machine("plug")
+    assert policy.first(HOME).params == state_params("plug", "approach")
     on_face = report_down(HOME, ExitCondition.WRENCH_BREACH, 0.0150)
     assert slide_y_m(policy.next(on_face)) == pytest.approx(0.012)
     assert slide_y_m(policy.next(report_down(HOME, ExitCondition.TIMEOUT, 0.0150))) == pytest.approx(-0.024)
     gave_up = policy.next(report_down(HOME, ExitCondition.TIMEOUT, 0.0151))
-    assert isinstance(gave_up, Finish) and not gave_up.completed and "either way" in gave_up.why
+    # No hole either way: the second slide (back along -y) found none.
+    assert isinstance(gave_up, Finish) and not gave_up.completed
+    assert gave_up.why.startswith("slide_minus ended timeout")
 
 
 def test_policy_inserts_once_the_prongs_drop_then_relieves_then_completes() -> None:
-    policy = plug.Plug()
+    policy = machine("plug")
     policy.first(HOME)
     policy.next(report_down(HOME, ExitCondition.WRENCH_BREACH, 0.0150))
     insert = policy.next(report_down(HOME, ExitCondition.WRENCH_BREACH, 0.0172))  # dropped 2.2 mm
     assert isinstance(insert, Step) and insert.params.force_threshold == 15.0 and "prongs in" in insert.why
+    assert insert.state == "insert"
     relieve = policy.next(report_down(HOME, ExitCondition.WRENCH_BREACH, 0.0309, peak=15.1))
-    assert isinstance(relieve, Step) and isinstance(relieve.params, RweParams)
+    assert isinstance(relieve, Step) and isinstance(relieve.params, RweParams) and relieve.state == "relieve"
     done = policy.next(report_down(HOME, ExitCondition.COMPLETED, 0.0308, "rwe"))
     assert isinstance(done, Finish) and done.completed
 
 
 def test_policy_recovers_a_short_insertion_and_stops_above_the_face() -> None:
-    policy = plug.Plug()
+    policy = machine("plug")
     policy.first(HOME)
     insert = policy.next(report_down(HOME, ExitCondition.GOAL_REACHED, 0.018))  # straight into the holes
     assert isinstance(insert, Step) and insert.params.translation == [0.0, 0.0, 0.025]
     short = policy.next(report_down(HOME, ExitCondition.WRENCH_BREACH, 0.022, peak=15.2))
     assert isinstance(short, Step) and isinstance(short.params, RweParams) and short.why.startswith("short:")
-    missed = plug.Plug()
+    assert short.state == "relieve_jam"
+    missed = machine("plug")
     missed.first(HOME)
     above = missed.next(report_down(HOME, ExitCondition.GOAL_REACHED, 0.008))
     assert isinstance(above, Finish) and not above.completed
@@ -82,7 +88,8 @@ def test_an_outlet_out_of_the_slides_reach_fails_and_is_not_counted() -> None:
     sim = Simulation("plug")
     sim.model.body("outlet").pos[1] += 0.016
     run = run_onboard("plug", sim=sim)
-    assert run.end == "failed" and not run.success and "either way" in run.why
+    # No hole either way: the second slide (back along -y) found none.
+    assert run.end == "failed" and not run.success and run.why.startswith("slide_minus ended")
     assert [s.params.translation[1] for s in run.steps[1:]] == pytest.approx([0.012, -0.024])
 
 

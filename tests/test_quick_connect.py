@@ -9,12 +9,14 @@ from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose, Ptwl, Rwe
 from robot_sim.geometry import body_poses, moving_bodies
 from robot_sim.params import DitherParams, PtwlParams, RweParams
 from robot_sim.policies import Finish, Step, run_onboard
-from robot_sim.policies import quick_connect as qc
 from robot_sim.scenes import LATCH_STROKE_M
 from robot_sim.sim import Simulation
-from tests.helpers import DOWN_WXYZ, report_down
+from tests.helpers import DOWN_WXYZ, machine, ptwl_state, report_down, state_params
 
 HOME = Pose((0.378, 0.0, 0.2765), DOWN_WXYZ)
+# robot_sim/machines/builtin/quick_connect.toml: travel from home past which the nipple has
+# pushed the collar through (the insert's guard).
+SEATED_M = 0.039
 
 
 def at(
@@ -29,28 +31,31 @@ def collar_m(sim: Simulation) -> float:
 
 # -------------------------------------------------------------------------- the policy
 def test_policy_relieves_once_seated_then_completes() -> None:
-    policy = qc.QuickConnect()
+    policy = machine("quick_connect")
     assert policy.first(HOME).params.force_threshold == 35.0  # above the latch's 25-30 N
     relieve = policy.next(at(0.0405, ExitCondition.WRENCH_BREACH, peak=35.2))
+    # Seated 40.5 mm down: the insert's guard read the travel.
     assert (
         isinstance(relieve, Step)
         and isinstance(relieve.params, RweParams)
-        and "seated 40.5 mm" in relieve.why
+        and relieve.state == "relieve"
+        and "travel(tool z) 0.0405" in relieve.why
     )
     done = policy.next(at(0.0402, ExitCondition.COMPLETED, "rwe"))
-    assert isinstance(done, Finish) and done.completed and "latched at 40.5 mm" in done.why
+    assert isinstance(done, Finish) and done.completed and done.why.startswith("relieve ended completed")
 
 
 def test_policy_recovers_a_short_insertion_and_gives_up_after_three() -> None:
-    policy = qc.QuickConnect()
+    policy = machine("quick_connect")
     policy.first(HOME)
-    for short in range(1, policy.settings.max_recoveries + 1):
+    for short in range(1, int(policy.settings.max_recoveries) + 1):
         relieve = policy.next(at(0.022, ExitCondition.WRENCH_BREACH, peak=36.0))
         assert (
             isinstance(relieve, Step)
             and isinstance(relieve.params, RweParams)
             and relieve.why.startswith("short:")
-            and f"({short})" in relieve.why
+            and relieve.state == "relieve_jam"
+            and policy.visits["relieve_jam"] == short
         )
         twist = policy.next(at(0.022, ExitCondition.COMPLETED, "rwe"))
         assert isinstance(twist, Step) and isinstance(twist.params, DitherParams)
@@ -59,16 +64,21 @@ def test_policy_recovers_a_short_insertion_and_gives_up_after_three() -> None:
         again = policy.next(at(0.025, ExitCondition.TIMEOUT, "dither"))
         assert isinstance(again, Step) and isinstance(again.params, RweParams)
         insert = policy.next(at(0.025, ExitCondition.COMPLETED, "rwe"))
-        assert isinstance(insert, Step) and insert.params == qc.INSERT
+        assert isinstance(insert, Step) and insert.params == state_params("quick_connect", "insert")
     gave_up = policy.next(at(0.022, ExitCondition.WRENCH_BREACH))
-    assert isinstance(gave_up, Finish) and not gave_up.completed and "3 recoveries" in gave_up.why
+    # Still short after 3 recoveries.
+    assert isinstance(gave_up, Finish) and not gave_up.completed and gave_up.why.startswith("insert ended")
+    assert policy.visits["relieve_jam"] == 3
 
 
 def test_policy_treats_a_stop_at_the_collar_as_short_whatever_the_exit() -> None:
-    policy = qc.QuickConnect()
+    policy = machine("quick_connect")
     policy.first(HOME)
-    decision = policy.next(at(qc.SEATED_M - 0.001, ExitCondition.TIMEOUT))
-    assert isinstance(decision, Step) and decision.why.startswith("short:") and "(1)" in decision.why
+    decision = policy.next(at(SEATED_M - 0.001, ExitCondition.TIMEOUT))
+    assert (
+        isinstance(decision, Step) and decision.why.startswith("short:") and decision.state == "relieve_jam"
+    )
+    assert policy.visits["relieve_jam"] == 1  # the first recovery
 
 
 # -------------------------------------------------------------------------- the physics
@@ -82,9 +92,11 @@ def test_the_latch_needs_25_to_30_n_and_the_default_threshold_stops_at_the_colla
     collar = sim.model.body("collar").id
     assert collar in moving_bodies(sim.model)  # telemetry carries it: a console draws it moving
     z_before = body_poses(sim.model, sim.data, [collar])["collar"][2]
-    pushed = sim.run_behavior(Ptwl(qc.INSERT))
+    pushed = sim.run_behavior(Ptwl(ptwl_state("quick_connect", "insert")))
     assert sim.task().success and 25.0 <= pushed.peak_force <= 36.0
-    assert sim.run_behavior(Rwe(qc.RELIEVE)).exit is ExitCondition.COMPLETED
+    relieve = state_params("quick_connect", "relieve")
+    assert isinstance(relieve, RweParams)
+    assert sim.run_behavior(Rwe(relieve)).exit is ExitCondition.COMPLETED
     for _ in range(2000):
         sim.step()
     assert sim.task().success and collar_m(sim) == pytest.approx(LATCH_STROKE_M, abs=3e-4)

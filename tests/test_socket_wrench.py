@@ -6,9 +6,8 @@ import pytest
 from robot_sim.behaviors import ExitCondition, Pose, Ptwl
 from robot_sim.params import PtwlParams, RweParams
 from robot_sim.policies import Finish, Step, run_onboard
-from robot_sim.policies import socket_wrench as sw
 from robot_sim.sim import Simulation
-from tests.helpers import DOWN_WXYZ, report_down, ten_seeds
+from tests.helpers import DOWN_WXYZ, machine, ptwl_state, report_down, ten_seeds
 
 HOME = Pose((0.378, 0.0, 0.2965), DOWN_WXYZ)
 
@@ -20,24 +19,23 @@ def ball_out_m(sim: Simulation) -> float:
 
 # -------------------------------------------------------------------------- the policy
 def test_policy_tilts_toward_the_detent_when_caught_then_inserts_upright_then_relieves() -> None:
-    policy = sw.SocketWrench()
-    assert policy.first(HOME).params == sw.APPROACH
+    policy = machine("socket_wrench")
+    assert policy.first(HOME).params == ptwl_state("socket_wrench", "approach")
     tilt = policy.next(report_down(HOME, ExitCondition.WRENCH_BREACH, 0.0147, peak=15.2))
-    assert (
-        isinstance(tilt, Step) and isinstance(tilt.params, PtwlParams) and "caught at the mouth" in tilt.why
-    )
+    # Caught at the mouth (the detent ball on the edge): tilt.
+    assert isinstance(tilt, Step) and isinstance(tilt.params, PtwlParams) and tilt.state == "tilt"
     assert tilt.params.rotation == [0.0, -0.07, 0.0]  # the top toward tool +x, the ball's side
     insert = policy.next(report_down(HOME, ExitCondition.TIMEOUT, 0.0170))
     assert isinstance(insert, Step) and isinstance(insert.params, PtwlParams)
     assert insert.params.rotation == [0.0, 0.07, 0.0] and insert.params.translation[2] == 0.02
     relieve = policy.next(report_down(HOME, ExitCondition.TIMEOUT, 0.0300))
-    assert isinstance(relieve, Step) and isinstance(relieve.params, RweParams)
+    assert isinstance(relieve, Step) and isinstance(relieve.params, RweParams) and relieve.state == "relieve"
     done = policy.next(report_down(HOME, ExitCondition.COMPLETED, 0.0300, "rwe"))
     assert isinstance(done, Finish) and done.completed
 
 
 def test_policy_tilts_again_after_a_short_insert_and_gives_up_after_max_recoveries() -> None:
-    policy = sw.SocketWrench({"max_recoveries": 2, "tilt_rad": 0.05})
+    policy = machine("socket_wrench", {"max_recoveries": 2, "tilt_rad": 0.05})
     policy.first(HOME)
     first = policy.next(report_down(HOME, ExitCondition.WRENCH_BREACH, 0.015))
     assert isinstance(first, Step) and first.params.rotation == [0.0, -0.05, 0.0]  # type: ignore[union-attr]
@@ -45,13 +43,18 @@ def test_policy_tilts_again_after_a_short_insert_and_gives_up_after_max_recoveri
     for _ in range(2):
         relieve = policy.next(report_down(HOME, ExitCondition.WRENCH_BREACH, 0.016))
         assert isinstance(relieve, Step) and isinstance(relieve.params, RweParams) and "short" in relieve.why
+        assert relieve.state == "relieve_jam"
         tilt = policy.next(report_down(HOME, ExitCondition.COMPLETED, 0.016, "rwe"))
-        assert isinstance(tilt, Step) and tilt.params == policy.tilt
+        assert isinstance(tilt, Step) and tilt.params == ptwl_state("socket_wrench", "tilt", tilt_rad=0.05)
         insert = policy.next(report_down(HOME, ExitCondition.TIMEOUT, 0.016))
-        assert isinstance(insert, Step) and insert.params == policy.insert
+        assert isinstance(insert, Step) and insert.params == ptwl_state(
+            "socket_wrench", "insert", tilt_rad=0.05
+        )
     gave_up = policy.next(report_down(HOME, ExitCondition.WRENCH_BREACH, 0.016))
-    assert isinstance(gave_up, Finish) and not gave_up.completed and "3 tilts" in gave_up.why
-    above = sw.SocketWrench()
+    # Still short after 3 tilts.
+    assert isinstance(gave_up, Finish) and not gave_up.completed and gave_up.why.startswith("insert ended")
+    assert policy.visits["tilt"] == 3
+    above = machine("socket_wrench")
     above.first(HOME)
     missed = above.next(report_down(HOME, ExitCondition.GOAL_REACHED, 0.006))
     assert isinstance(missed, Finish) and not missed.completed
@@ -62,7 +65,7 @@ def test_a_straight_push_stops_with_the_ball_on_the_edge_and_is_not_in() -> None
     """The negative case and the paper's jam: at 15 N the shank stops ~5 mm in, where the ball
     meets the socket's edge, the ball still out."""
     sim = Simulation("socket_wrench", seed=0)
-    report = sim.run_behavior(Ptwl(sw.APPROACH))
+    report = sim.run_behavior(Ptwl(ptwl_state("socket_wrench", "approach")))
     assert report.exit is ExitCondition.WRENCH_BREACH
     assert 0.004 < sim.task().progress < 0.0065 and not sim.task().success  # the ball is 6 mm up
     assert ball_out_m(sim) > -0.0002
@@ -75,7 +78,7 @@ def test_tilting_toward_the_detent_presses_the_ball_in(seed: int) -> None:
     pressed = {}
     for name, tilt in (("upright", 0.0), ("toward", -0.07), ("away", 0.07)):
         sim = Simulation("socket_wrench", seed=seed)
-        sim.run_behavior(Ptwl(sw.APPROACH))
+        sim.run_behavior(Ptwl(ptwl_state("socket_wrench", "approach")))
         sim.run_behavior(
             Ptwl(
                 PtwlParams(
@@ -99,7 +102,11 @@ def test_a_socket_off_beyond_the_chamfer_fails_and_is_not_counted() -> None:
     sim = Simulation("socket_wrench")
     sim.model.body("socket").pos[0] += 0.003
     run = run_onboard("socket_wrench", sim=sim, overrides={"max_recoveries": 1})
-    assert run.end == "failed" and not run.success and "2 tilts" in run.why
+    # Still short after 2 tilts (relieve_jam's visits used up; not the guard above the socket, whose
+    # travel reading the why would show).
+    assert run.end == "failed" and not run.success and run.why.startswith("insert ended")
+    assert "travel" not in run.why
+    assert sum(s.state == "tilt" for s in run.steps) == 2
 
 
 def test_ten_seeds_insert_the_shank_onboard_each_after_tilting_past_the_ball() -> None:
@@ -107,4 +114,4 @@ def test_ten_seeds_insert_the_shank_onboard_each_after_tilting_past_the_ball() -
     assert all(r["success"] and r["end"] == "completed" for r in runs), [(r["seed"], r["why"]) for r in runs]
     assert all(r["max_force_n"] <= 30.0 for r in runs), [r["max_force_n"] for r in runs]
     for r in runs:  # even aligned, the ball catches every time, and the tilt follows
-        assert "caught at the mouth" in r["steps"][1]["why"], r["steps"][1]["why"]
+        assert r["steps"][1]["state"] == "tilt", r["steps"][1]["why"]  # caught at the mouth

@@ -10,19 +10,21 @@ import pytest
 from robot_sim.behaviors import ExitCondition, Gripper, Ptwl, Rwe
 from robot_sim.params import GripperParams, RweParams
 from robot_sim.policies import run_onboard
-from robot_sim.policies import tool_bay as moves
 from robot_sim.scenes.tool_bay import Bay, held, tool_qpos
 from robot_sim.sim import Simulation
 from server.client import RobotClient
-from tests.helpers import ten_seeds
+from tests.helpers import ptwl_state, ten_seeds
 
 CLOSE, OPEN = Gripper(GripperParams(action="close")), GripperParams(action="open")
+# robot_sim/machines/builtin/tool_retrieval.toml and tool_stowage.toml: the unlock turn (the
+# tool's legs clear the bay's tabs past 0.52 rad).
+TURN_OPEN_RAD = 0.8
 
 
 def on_the_knob(seed: int | None = None) -> Simulation:
     """tool_retrieval with the gripper's pad brought down onto the tool's knob."""
     sim = Simulation("tool_retrieval", seed)
-    report = sim.run_behavior(Ptwl(moves.down(0.04)))
+    report = sim.run_behavior(Ptwl(ptwl_state("tool_retrieval", "approach")))  # 40 mm down
     assert report.exit is ExitCondition.WRENCH_BREACH
     return sim
 
@@ -66,7 +68,7 @@ def test_a_locked_tool_will_not_lift_out() -> None:
     sim = on_the_knob()
     sim.run_behavior(Gripper(GripperParams(action="close")))
     sim.run_behavior(Rwe(RweParams(duration=1.0)))
-    report = sim.run_behavior(Ptwl(moves.up(0.06)))
+    report = sim.run_behavior(Ptwl(ptwl_state("tool_retrieval", "extract")))  # 60 mm up
     assert report.exit is ExitCondition.WRENCH_BREACH and lift(sim) < 0.012
     assert not sim.task().success
 
@@ -74,7 +76,7 @@ def test_a_locked_tool_will_not_lift_out() -> None:
 def test_the_lock_spring_turns_a_released_tool_back_under_the_tabs() -> None:
     sim = on_the_knob()
     sim.run_behavior(Gripper(GripperParams(action="close")))
-    turned = sim.run_behavior(Ptwl(moves.turn(-moves.TURN_OPEN_RAD)))
+    turned = sim.run_behavior(Ptwl(ptwl_state("tool_retrieval", "unlock")))  # -TURN_OPEN_RAD
     assert turned.exit is ExitCondition.GOAL_REACHED
     assert math.degrees(Bay.of(sim.model).turn_rad(sim.data)) > 40.0
     assert 0.3 < turned.final_wrench[5] * -1 < 0.6  # the spring's 0.6 N m/rad, held by the port
@@ -87,10 +89,10 @@ def test_a_stowed_and_locked_tool_still_in_the_gripper_is_not_stowed() -> None:
     """The predicate's last clause: bottomed and locked is not enough until the jaws let go."""
     sim = Simulation("tool_stowage")
     for params in (
-        moves.down(0.03),
-        moves.turn(-moves.TURN_OPEN_RAD),
-        moves.down(0.03),
-        moves.turn(moves.TURN_OPEN_RAD),
+        ptwl_state("tool_stowage", "approach"),  # 30 mm down
+        ptwl_state("tool_stowage", "unlock"),  # -TURN_OPEN_RAD
+        ptwl_state("tool_stowage", "bottom"),  # 30 mm down
+        ptwl_state("tool_stowage", "lock", turned=-TURN_OPEN_RAD),  # +TURN_OPEN_RAD
     ):
         sim.run_behavior(Ptwl(params))
     bay = Bay.of(sim.model)

@@ -152,6 +152,26 @@ class Commanding:
             return
         self._frames.edited(changed.name, None if pose is None else changed.model_dump())
 
+    def machine(self) -> tuple[dict[str, Any] | None, float | None]:
+        """(telemetry's running machine, the robot's sim time) as last heard."""
+        state, _ = self._link.latest()
+        return (state.get("machine"), float(state["sim_time"])) if state is not None else (None, None)
+
+    def decide(self, desk: "Desk", command_id: int, body: dict[str, Any]) -> None:
+        """Answer the running machine's pending decision: only the operator in control, as for
+        commands; across the link like any command (a late answer is refused by its number)."""
+        if not self._seat.holds(desk.client_id):
+            desk.client.add_notification(
+                "Not decided: you are watching", "Take control to answer decisions.", color="red"
+            )
+            return
+        try:
+            self._link.client.decide(command_id, **body)
+        except RobotError as err:
+            self._notifier.notify("Decision refused", str(err.detail), "red")
+        except httpx.HTTPError as err:
+            self._notifier.notify("Decision not delivered", f"{type(err).__name__}: {err}", "red")
+
     # -------------------------------------------------------------- STOP
     def stop(self, client: viser.ClientHandle | None = None) -> None:
         """Anyone may stop. The bar shows it pending until the robot confirms; a failure stays on

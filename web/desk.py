@@ -46,6 +46,10 @@ class DeskServices(Protocol):
 
     def edit_frame(self, desk: "Desk", name: str, pose: "dict[str, list[float]] | str | None") -> None: ...
 
+    def machine(self) -> tuple[dict[str, Any] | None, float | None]: ...
+
+    def decide(self, desk: "Desk", command_id: int, body: dict[str, Any]) -> None: ...
+
 
 @dataclass(frozen=True)
 class DeskCatalog:
@@ -82,6 +86,19 @@ class Desk:
         preview_line = self.panel.ptwl.step.preview_html
         self.preview = DeskPreview(scene, preview_line, services.preview, self._typed_ptwl)
         self.frames_view = FramesView(scene)
+        machines = self.panel.machines
+        self.machine_preview = DeskPreview(
+            scene, machines.preview_line, services.preview, machines.next_step, root="/machine_preview"
+        )
+        self._machine_shown: tuple[Any, ...] | None = None
+        for button, choice in (
+            (machines.confirm, "confirm"),
+            (machines.decide_outcome, "outcome"),
+            (machines.force, "force"),
+            (machines.stop_machine, "stop"),
+        ):
+            button.on_click(self._decider(choice))
+        machines.preview_next.on_click(lambda _: self._preview_next())
         panel = self.panel
         edit_frame = services.edit_frame
         # Frames: add at the tool or a typed pose (the name typed), delete one (None: no pose).
@@ -173,6 +190,43 @@ class Desk:
         take.on_click(confirmed)
         cancel.on_click(lambda _: modal.close())
 
+    def _decider(self, choice: str) -> Callable[[Any], None]:
+        return lambda _: self._decide(choice)
+
+    def _decide(self, choice: str) -> None:
+        answer = self.panel.machines.decision_body(choice)
+        if answer is not None:
+            self._services.decide(self, *answer)
+
+    def _preview_next(self) -> None:
+        step = self.panel.machines.next_step()
+        if step is not None:
+            self.machine_preview.ask(step)
+
+    def state_arrived(self) -> None:
+        """A state: the contemplated target moves with the port; the running machine is shown."""
+        self.update_contemplated()
+        self.show_machine()
+
+    def close_previews(self) -> None:
+        self.preview.errands.close()
+        self.machine_preview.errands.close()
+
+    def show_machine(self) -> None:
+        """The running machine as telemetry last said (its pending decision, the graph): redrawn
+        only when it changed or the seat did (who may answer)."""
+        machine, sim_time = self._services.machine()
+        may = self._seat.holds(self.client_id)
+        pending = (machine or {}).get("pending")
+        # While a decision waits, its waiting time is shown to the tenth of a second.
+        shown = (repr(machine), may, round(sim_time, 1) if pending and sim_time is not None else None)
+        if shown == self._machine_shown:
+            return
+        self._machine_shown = shown
+        with self.client.atomic():
+            self.panel.machines.show_running(machine, sim_time, may)
+            self.machine_preview.refresh()
+
     def _preview(self) -> None:
         try:
             request = self.params("ptwl")
@@ -203,6 +257,7 @@ class Desk:
     def seat_changed(self) -> None:
         holder = self._seat.holder
         self.panel.show_control(holder == self.client_id, operator_name(holder))
+        self.show_machine()  # who may answer a decision
 
     def show_frames(self, frames: list[dict[str, Any]]) -> None:
         """The robot's task frames changed (or first became known): offer them, draw them, and

@@ -26,8 +26,9 @@ class DeskPreview:
         line: viser.GuiHtmlHandle,
         run: RunFn,
         typed: Callable[[], dict[str, Any] | None],  # the PTWL as the fields make it now (None: they do not)
+        root: str = "/preview",  # its 3D marks' scene path (a desk has two: the PTWL's, the machine's)
     ) -> None:
-        self.marks = PreviewMarks(scene)
+        self.marks = PreviewMarks(scene, root)
         self._line, self._run, self._typed = line, run, typed
         self._of: dict[str, Any] | None = None  # the request shown
         self._shown: tuple[PreviewResult | None, str] = (None, "")

@@ -92,9 +92,9 @@ class Desks:
 
     def state_arrived(self) -> None:
         """The port moved: each desk's contemplated target moves with it."""
-        self._each(lambda desk: desk.update_contemplated())
+        self._each(Desk.state_arrived)
 
     def close(self) -> None:
         """No new desk, and every desk's preview joined."""
         self.closed = True
-        self._each(lambda desk: desk.preview.errands.close())
+        self._each(Desk.close_previews)

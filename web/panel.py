@@ -1,4 +1,4 @@
-"""The control panel of the paper's Fig. 2: PTWL, RWE, Dither, Frames and Tasks tabs over a
+"""The control panel of the paper's Fig. 2: PTWL, RWE, Dither, Frames, Machines and Gripper tabs over a
 stiffness preset, and who has control.
 
 Each tab is its own class (web/ptwl_tab.py, web/dither_tab.py, web/small_tabs.py,
@@ -18,12 +18,13 @@ from web.control_line import ControlLine
 from web.defaults import ConsoleDefaults
 from web.dither_tab import DitherTab
 from web.frames_tab import FramesTab
+from web.machines_tab import MachinesTab
 from web.markup import show
 from web.panel_html import check_html, field_named
 from web.ptwl_settings import BUILT_IN_FRAMES, PRESET_FRAME
 from web.ptwl_tab import PtwlTab
 from web.request_tab import RequestTab, Typed
-from web.small_tabs import GripperTab, RweTab, TaskTab
+from web.small_tabs import GripperTab, RweTab
 from web.stiffness_picker import StiffnessPicker
 
 FORM_ORDER = 10.0  # each browser's own form sits above the shared board (order 100+)
@@ -53,15 +54,16 @@ class Panel:
             self.dither = DitherTab(gui, dither_presets, defaults.dither_preset)
         with tabs.add_tab("Frames"):  # task frames: named axes to command in (robot_sim/task_frames.py)
             self.frames = FramesTab(gui)
-        with tabs.add_tab("Tasks"):
-            self.tasks = TaskTab(gui, tasks)
+        with tabs.add_tab("Machines"):
+            self.machines = MachinesTab(gui, tasks)
+        with tabs.add_tab("Gripper"):
             self.gripper = GripperTab(gui)
         self.stiffness = StiffnessPicker(
             gui, stiffness_presets, defaults.stiffness_preset, order=FORM_ORDER + 0.3
         )
         self.ptwl.inputs.append(self.stiffness.dropdown)  # the PTWL sends its preset: a change rechecks
         self._requests: dict[str, RequestTab] = {
-            tab.behavior: tab for tab in (self.ptwl, self.rwe, self.dither, self.tasks, self.gripper)
+            tab.behavior: tab for tab in (self.ptwl, self.rwe, self.dither, self.machines, self.gripper)
         }
         self._valid = dict.fromkeys(self._requests, True)
         self.ptwl.step.step_percent.on_update(lambda _: self.refresh_buttons())
@@ -153,4 +155,4 @@ class Panel:
         self.refresh_buttons()
 
     def show_scene_task(self, scene: str) -> None:
-        self.tasks.show_scene_task(scene)
+        self.machines.show_scene_task(scene)

@@ -12,13 +12,13 @@ MAX_SEGMENTS = 24
 
 
 class PreviewMarks:
-    def __init__(self, scene: viser.SceneApi) -> None:
+    def __init__(self, scene: viser.SceneApi, root: str = "/preview") -> None:
         empty = np.zeros((1, 2, 3))
         self.attractor = scene.add_line_segments(
-            "/preview/attractor", empty, ORANGE, thickness=2.0, visible=False
+            f"{root}/attractor", empty, ORANGE, thickness=2.0, visible=False
         )
-        self.port = scene.add_line_segments("/preview/port", empty, CYAN, thickness=3.0, visible=False)
-        self.label = scene.add_label("/preview/end", "", visible=False, anchor="bottom-left")
+        self.port = scene.add_line_segments(f"{root}/port", empty, CYAN, thickness=3.0, visible=False)
+        self.label = scene.add_label(f"{root}/end", "", visible=False, anchor="bottom-left")
 
     def show(self, result: PreviewResult) -> None:
         self.attractor.points = _segments(result.attractor_path)

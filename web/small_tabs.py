@@ -1,15 +1,15 @@
-"""The RWE tab (a checkbox per axis, duration, frame), and the Tasks tab's two requests: a task's
-onboard state machine, run as one command, and the tool tasks' gripper (paper 2.3.3-2.3.4)."""
+"""The RWE tab (a checkbox per axis, duration, frame) and the Gripper tab: the tool tasks' gripper
+(paper 2.3.3-2.3.4). A task's state machine is the Machines tab's (web/machines_tab.py)."""
 
 from typing import Any
 
 import viser
 
-from web.markup import add_html, show
-from web.panel_html import check_html, summary_html
+from web.markup import add_html
+from web.panel_html import check_html
 from web.ptwl_settings import BUILT_IN_FRAMES
 from web.ptwl_tab import FRAME_HINT
-from web.request_tab import RequestTab, set_value
+from web.request_tab import RequestTab
 from web.typed_number import SECONDS, TypedNumber
 
 AXES = ("x", "y", "z", "rx", "ry", "rz")
@@ -33,35 +33,6 @@ class RweTab(RequestTab):
             "duration": self.duration.si,
             "frame": str(self.frame.value),
         }
-
-
-class TaskTab(RequestTab):
-    behavior = "state_machine"
-
-    def __init__(self, gui: viser.GuiApi, tasks: dict[str, str]) -> None:
-        self.tasks = tasks
-        names = list(tasks) or ["(none)"]
-        self.task = gui.add_dropdown("Task", names, initial_value=names[0])
-        self.summary = add_html(gui, summary_html(tasks.get(names[0], "")))
-        self.check_line = add_html(gui, check_html("state_machine", "", []))
-        self.send = gui.add_button(
-            "Run state machine", color="blue", disabled=True, hint="STOP aborts it like any command"
-        )
-        self.inputs = [self.task]
-        self.typed = {}
-        self.task.on_update(lambda _: self._show_summary())
-
-    def show_scene_task(self, scene: str) -> None:
-        """Pick the loaded scene's task (each task's machine runs only on its own scene)."""
-        if scene in self.tasks and self.task.value != scene:
-            set_value(self.task, scene)
-            self._show_summary()
-
-    def _show_summary(self) -> None:
-        show(self.summary, summary_html(self.tasks.get(str(self.task.value), "")))
-
-    def params(self) -> dict[str, Any]:
-        return {"task": str(self.task.value)}
 
 
 class GripperTab(RequestTab):

@@ -217,7 +217,7 @@ def _holds(guard: Guard, reading: float | str, numbers: dict[str, float]) -> boo
         assert isinstance(reading, str) and isinstance(value, str)
         return reading.startswith(value)
     assert isinstance(reading, float)
-    bound = numbers[value.var] * value.scale + value.offset if isinstance(value, Ref) else float(value)  # type: ignore[arg-type]
+    bound = numbers[value.var] * value.scale + value.offset if isinstance(value, Ref) else float(value)
     match guard.op:
         case "<":
             return reading < bound

@@ -110,7 +110,8 @@ class Guard(Reading):
         text = self.measure == "detail"
         if text != (self.op == "starts_with") or text != isinstance(self.value, str):
             raise ValueError(
-                "detail compares with op `starts_with` and a text; every other measure with < <= > >= and a number"
+                "detail compares with op `starts_with` and a text; "
+                "every other measure with < <= > >= and a number"
             )
         if isinstance(self.value, float) and not math.isfinite(self.value):
             raise ValueError("value must be finite")
@@ -143,7 +144,8 @@ class Transition(StrictModel):
     to: Name = Field(description="the next state, or `completed` / `failed`")
     autonomy: Autonomy = Field(
         "off",
-        description="FlexBE's level: waits for the operator unless below the run's (`off`: only when it is off)",
+        description="FlexBE's level: waits for the operator unless below the run's "
+        "(`off`: only when autonomy is off)",
     )
 
     def takes(self, exit_name: str) -> bool:
@@ -301,10 +303,14 @@ class MachineSpec(StrictModel):
                     f"{here}.transitions[{i}].when[{j}]", guard, names, pose_vars, number_vars
                 )
                 if isinstance(guard.value, Ref) and guard.value.var not in number_vars:
-                    yield f"{here}.transitions[{i}].when[{j}].value: no number variable or setting {guard.value.var!r}"
-            for exit_name in t.on or ():
-                if exit_name not in state.exits():
-                    yield f"{here}.transitions[{i}].on: a {state.behavior} never ends {exit_name!r} (it ends {', '.join(state.exits())})"
+                    yield (
+                        f"{here}.transitions[{i}].when[{j}].value: "
+                        f"no number variable or setting {guard.value.var!r}"
+                    )
+            for taken in t.on or ():
+                if taken not in state.exits():
+                    ends = ", ".join(state.exits())
+                    yield f"{here}.transitions[{i}].on: a {state.behavior} never ends {taken!r} ({ends})"
         for exit_name in state.exits():
             if not any(t.takes(exit_name) and not t.when for t in state.transitions):
                 yield (
@@ -331,7 +337,7 @@ class MachineSpec(StrictModel):
         self, where: str, reading: Reading, names: set[str], pose_vars: set[str], number_vars: set[str]
     ) -> Iterator[str]:
         if reading.measure in ("travel", "tilt", "twist") and reading.since not in pose_vars:
-            yield f'{where}.since: no pose variable {reading.since!r} (start, or a state\'s set with measure = "port")'
+            yield f"{where}.since: no pose variable {reading.since!r} (start, or a `set` with measure port)"
         if reading.measure == "visits" and reading.state not in names:
             yield f"{where}.state: no state {reading.state!r}"
         if reading.measure == "var" and reading.var not in number_vars:
@@ -408,7 +414,7 @@ class MachineSpec(StrictModel):
         bound = self.states[name].max_visits
         if bound is None or isinstance(bound, int):
             return bound
-        return int(round(settings[bound.var] * bound.scale + bound.offset))
+        return round(settings[bound.var] * bound.scale + bound.offset)
 
     def edges(self) -> list[tuple[str, str, str, Autonomy]]:
         """(from, to, label, level) for every transition, and each bounded state's `exhausted`."""

@@ -23,10 +23,21 @@ from robot_sim.sim import Simulation
 
 # Python: the machines the format cannot express (README: Machines says why); the rest are files.
 PYTHON_POLICIES: dict[str, type[Policy]] = {p.task: p for p in (SleeveOnPeg, Lid, ToolExchange)}
-POLICIES: dict[str, type[Policy]] = {
-    **PYTHON_POLICIES,
-    **{task: policy_class(spec) for task, spec in builtin_machines().items()},
-}
+_FILES: dict[str, type[Policy]] = {task: policy_class(spec) for task, spec in builtin_machines().items()}
+# The paper's order (section 2.3's), as the API and the console list them.
+ORDER = (
+    "sleeve_on_peg",
+    "quick_connect",
+    "lid",
+    "plug",
+    "socket_wrench",
+    "door",
+    "berthing",
+    "tool_retrieval",
+    "tool_stowage",
+    "tool_exchange",
+)
+POLICIES: dict[str, type[Policy]] = {task: {**PYTHON_POLICIES, **_FILES}[task] for task in ORDER}
 
 # The tasks a request names are these (robot_sim/params.py resolves names through NAMED).
 NAMED.tasks = POLICIES.keys

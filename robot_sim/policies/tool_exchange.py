@@ -19,10 +19,10 @@ accumulates from cycle to cycle: not the lock's turns, not what each contact lef
 from pydantic import Field
 
 from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
-from robot_sim.params import PtwlParams
-from robot_sim.policies.base import Decision, Finish, Policy, PolicySettings, Step
 from robot_sim.machines.engine import SpecPolicy, policy_class
 from robot_sim.machines.library import builtin_machines
+from robot_sim.params import PtwlParams
+from robot_sim.policies.base import Decision, Finish, Policy, PolicySettings, Step
 from robot_sim.scenes.tool_exchange import EXCHANGES_WANTED
 
 PARK_OFFSET_M = (0.0, 0.12, 0.06)  # [m] base axes, from the start: aside and up, clear of the bay

@@ -11,6 +11,7 @@ import matplotlib.pyplot as plt
 
 from ptwl.experiments.sweep.summary import (
     Fit,
+    LevelAt,
     SweetSpot,
     arm,
     break_even_s,
@@ -114,6 +115,10 @@ def _sweet_spot_plot(spots: list[SweetSpot], path: Path) -> None:
     plt.close(fig)
 
 
+def _level_cell(at: LevelAt) -> str:
+    return f"{100.0 * at.success_rate:.0f} %, {at.task_time_median_s:.1f}, {at.decisions_waited_mean:.1f}"
+
+
 def sweet_spot_lines(spots: list[SweetSpot]) -> list[str]:
     """The sweet-spot table (markdown): per RTT, each level's success and median time, and the
     level with the best time at or above the reference level's success rate."""
@@ -124,12 +129,7 @@ def sweet_spot_lines(spots: list[SweetSpot]) -> list[str]:
     lines = [head, "|---|" + "---|" * (len(names) + 1)]
     for s in spots:
         by = {x.level: x for x in s.levels}
-        cells = [
-            f"{100.0 * by[n].success_rate:.0f} %, {by[n].task_time_median_s:.1f}, {by[n].decisions_waited_mean:.1f}"
-            if n in by
-            else "-"
-            for n in names
-        ]
+        cells = [_level_cell(by[n]) if n in by else "-" for n in names]
         lines.append(f"| {s.rtt_s:g} | " + " | ".join(cells) + f" | **{s.best}** |")
     reference = spots[0].reference
     lines += [

@@ -72,6 +72,11 @@ class TrialSpec:
         )
 
 
+def _levels(autonomies: list[str] | None) -> list[str | None]:
+    """The autonomy levels an operator runs at: those given, or None (the command's default)."""
+    return list(autonomies) if autonomies else [None]
+
+
 def arm_of(operator: str, autonomy: str | None) -> str:
     """Who runs the task, as reports group trials: ground, onboard, or onboard at a level."""
     return operator if not autonomy else f"{operator} ({autonomy})"
@@ -107,7 +112,7 @@ def grid(
             task, operator, rtt, jitter_s, loss, seed + i, think_s, profile, max_age_s, autonomy, machine
         )
         for operator in operators
-        for autonomy in (list[str | None](autonomies or [None]) if operator == "onboard" else [None])
+        for autonomy in _levels(autonomies if operator == "onboard" else None)
         for rtt in rtts_s
         for i in range(trials)
     ]
