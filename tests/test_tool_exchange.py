@@ -17,6 +17,7 @@ from robot_sim.params import GripperParams, PtwlParams
 from robot_sim.policies import Finish, Machine, Step, TaskRun, run_onboard
 from robot_sim.policies.base import MAX_STEPS
 from robot_sim.policies.tool_exchange import OVER_M, PARK_OFFSET_M, STEPS_PER_CYCLE, ToolExchange
+from robot_sim.policies.travel import travel_down_tool_axis_m
 from robot_sim.pose_math import rotvec_from_to
 from robot_sim.scenes.tool_bay import BOTTOMED_M, Bay
 from robot_sim.scenes.tool_exchange import ExchangeWitness
@@ -72,8 +73,10 @@ def test_each_cycle_starts_where_the_first_did_untwisted(three: tuple[TaskRun, P
         assert (
             float(np.linalg.norm(rotvec_from_to(step.report.final_port.quaternion, home.quaternion))) < 0.02
         )
-    depths_mm = [
-        float(s.why.split("on the knob (")[1].split(" mm")[0]) for s in run.steps if "on the knob (" in s.why
+    depths_mm = [  # each retrieval's approach, stopped on the knob
+        1000.0 * travel_down_tool_axis_m(home, s.report.final_port)
+        for s in run.steps
+        if s.state == "approach" and ", tool_retrieval: " in s.why
     ]
     assert len(depths_mm) == CYCLES and max(depths_mm) - min(depths_mm) < 3.0  # the knob found where it was
 
@@ -169,7 +172,8 @@ def test_the_machine_untwists_on_the_way_and_fails_naming_the_cycle() -> None:
     assert isinstance(bottomed, Step)  # past the tabs already: bottom out
     failed = policy.next(ended(ExitCondition.WRENCH_BREACH, moved(HOME, (0.0, 0.0, -0.017))))
     assert isinstance(failed, Finish) and not failed.completed
-    assert failed.why.startswith("cycle 1, tool_stowage: stopped short of the floor")
+    assert failed.why.startswith("cycle 1, tool_stowage: bottom ended wrench_breach")
+    assert failed.why.endswith(": stopped short of the floor")
     assert policy.figures() == {"exchanges": 0.0}
 
 

@@ -43,6 +43,8 @@ class Proposal:
     target: str  # a state, or `completed` / `failed`
     level: Autonomy
     readings: dict[str, float | str] = field(default_factory=dict)
+    why: str = ""  # the transition's own words
+    used_up: str | None = None  # the state it led to, whose visits were used up (then `target`)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -52,6 +54,8 @@ class Proposal:
             "target": self.target,
             "level": self.level,
             "readings": self.readings,
+            "why": self.why,
+            "used_up": self.used_up,
         }
 
 
@@ -100,7 +104,9 @@ class SpecPolicy(Policy):
                 continue
             readings = {_label(g): self._read(g, report, numbers, poses) for g in t.when}
             if all(_holds(g, readings[_label(g)], numbers) for g in t.when):
-                return Proposal(self.state, exit_name, i, self._resolve(t.to), t.autonomy, readings)
+                target = self._resolve(t.to)
+                used_up = t.to if target != t.to else None
+                return Proposal(self.state, exit_name, i, target, t.autonomy, readings, t.why, used_up)
         # Validation guarantees an unconditional transition for every exit the behavior ends
         # with; an operator's other outcome may name one it does not: the machine fails.
         return Proposal(self.state, exit_name, None, "failed", "off")
@@ -117,11 +123,15 @@ class SpecPolicy(Policy):
         how = f"{proposal.state} ended {proposal.exit}"
         if proposal.readings:
             how += " (" + ", ".join(f"{k} {_shown(v)}" for k, v in proposal.readings.items()) + ")"
+        if proposal.used_up is not None:
+            allowed = self.spec.visits_allowed(proposal.used_up, self.numbers)
+            how += f"; {proposal.used_up} used its {allowed} visits"
         if proposal.transition is None and proposal.target != "failed":
             how += ", forced by the operator"
         if proposal.target in TERMINALS:
-            return Finish(proposal.target == "completed", f"{how}: {proposal.target}")
-        return self._enter(proposal.target, how)
+            meaning = proposal.why if proposal.why and proposal.used_up is None else proposal.target
+            return Finish(proposal.target == "completed", f"{how}: {meaning}")
+        return self._enter(proposal.target, how, proposal.why if proposal.used_up is None else "")
 
     def preview(self, proposal: Proposal, report: BehaviorReport) -> dict[str, Any] | None:
         """The parameters of the behavior `proposal` leads to (None when it ends the machine)."""
@@ -133,13 +143,13 @@ class SpecPolicy(Policy):
         )
 
     # ----------------------------------------------------------------- parts
-    def _enter(self, name: str, how: str) -> Step:
+    def _enter(self, name: str, how: str, meaning: str = "") -> Step:
         self.state = name
         self.visits[name] += 1
         state = self.spec.states[name]
         params = command_params(state.command, self.numbers.__getitem__)
         why = f"{state.why} ({how})" if how and state.why else (state.why or how)
-        return Step(params, why, name)
+        return Step(params, f"{meaning}: {why}" if meaning else why, name)
 
     def _resolve(self, target: str) -> str:
         """`target`, or where it leads once its visits are used up (followed on; bounded)."""

@@ -142,6 +142,7 @@ class Transition(StrictModel):
     on: list[Exit] | None = Field(None, max_length=5, description="the exits it takes; omitted: any exit")
     when: list[Guard] = Field(default_factory=list, max_length=MAX_GUARDS, description="all must hold")
     to: Name = Field(description="the next state, or `completed` / `failed`")
+    why: str = Field("", max_length=MAX_WHY, description="what taking it means (the record says it)")
     autonomy: Autonomy = Field(
         "off",
         description="FlexBE's level: waits for the operator unless below the run's "

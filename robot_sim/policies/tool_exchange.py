@@ -103,7 +103,11 @@ class ToolExchange(Policy):
 
     def _in_cycle(self, step: Step) -> Step:
         assert self.phase is not None
-        return Step(step.params, f"cycle {self.cycle}/{self.settings.cycles}, {self.phase.task}: {step.why}")
+        return Step(
+            step.params,
+            f"cycle {self.cycle}/{self.settings.cycles}, {self.phase.task}: {step.why}",
+            step.state,
+        )
 
     def _carry(self, move: str, port: Pose, goal: Pose, why: str) -> Step:
         """A free move from `port` to `goal` in base axes (the port's pose at its end is where
