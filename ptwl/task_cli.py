@@ -12,10 +12,14 @@ import os
 import statistics
 import sys
 from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
 
 from tqdm import tqdm
 
 from robot_sim.limits import GRIPPER_CLOSE_S
+from robot_sim.machines.engine import settings_model
+from robot_sim.machines.library import read_machine
+from robot_sim.machines.spec import MachineSpec
 from robot_sim.policies import POLICIES, TaskRun, policy_for, run_onboard
 from robot_sim.policies.paper_tables import beside_paper
 from robot_sim.policies.run import paper_rows
@@ -32,7 +36,23 @@ def cmd_list(_: argparse.Namespace) -> int:
     return 0
 
 
-def overrides(task: str, pairs: list[str]) -> dict[str, object]:
+def machine_and_task(args: argparse.Namespace) -> tuple[MachineSpec | None, str]:
+    """`--machine FILE` (read and checked: a ConfigError names the file, state and field) and
+    the task whose scene it runs on (its own `task`, or the positional one)."""
+    if args.machine is None:
+        if args.task is None:
+            raise ValueError("give a task, or --machine FILE")
+        return None, str(args.task)
+    spec = read_machine(Path(args.machine))
+    task = args.task or spec.task
+    if task is None or task not in POLICIES:
+        raise ValueError(
+            f"--machine {args.machine}: name its scene (`task` in the file, or the task argument)"
+        )
+    return spec, task
+
+
+def overrides(task: str, pairs: list[str], spec: MachineSpec | None = None) -> dict[str, object]:
     """`--set NAME=VALUE` (VALUE as JSON: 0, 12.5, true), checked by the task's settings."""
     out: dict[str, object] = {}
     for pair in pairs:
@@ -41,7 +61,11 @@ def overrides(task: str, pairs: list[str]) -> dict[str, object]:
             out[name] = json.loads(value)
         except json.JSONDecodeError:
             raise ValueError(f"--set {pair}: the value must be JSON (a number, true or false)") from None
-    policy_for(task, out)  # checked by the policy's own settings: a ValidationError names the setting
+    # Checked by the machine's own settings: a ValidationError names the setting.
+    if spec is not None:
+        settings_model(spec).model_validate(out)
+    else:
+        policy_for(task, out)
     return out
 
 
@@ -59,8 +83,13 @@ def run_line(run: TaskRun) -> str:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    spec, task = machine_and_task(args)
     run = run_onboard(
-        args.task, args.seed, overrides=overrides(args.task, args.set), gripper_close_s=args.gripper_close_s
+        task,
+        args.seed,
+        overrides=overrides(task, args.set, spec),
+        gripper_close_s=args.gripper_close_s,
+        machine=spec,
     )
     if args.json:
         print(json.dumps(run.as_dict()))
@@ -95,24 +124,24 @@ def cmd_bench(args: argparse.Namespace) -> int:
     """Seeds 0..N-1 on every core (each trial is its own simulation: the same numbers whatever
     the number of workers); a progress bar on a terminal."""
     seeds = range(args.seeds)
-    check_close_time(
-        args.task, get_scene(args.task).gripper, args.gripper_close_s
-    )  # before any worker starts
+    spec, task = machine_and_task(args)
+    check_close_time(task, get_scene(task).gripper, args.gripper_close_s)  # before any worker starts
     warm_up()  # compiled here once, into the cache every worker then loads (robot_sim/warm.py)
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
         trials = pool.map(
             run_onboard,
-            itertools.repeat(args.task),
+            itertools.repeat(task),
             seeds,
             itertools.repeat(None),
-            itertools.repeat(overrides(args.task, args.set)),
+            itertools.repeat(overrides(task, args.set, spec)),
             itertools.repeat(args.gripper_close_s),
+            itertools.repeat(spec),
         )
-        runs = list(tqdm(trials, total=len(seeds), desc=args.task, unit="trial", file=sys.stderr))
-    print(bench_table(args.task, runs))
+        runs = list(tqdm(trials, total=len(seeds), desc=task, unit="trial", file=sys.stderr))
+    print(bench_table(task, runs))
     ours = paper_rows([r.as_dict() for r in runs], [r.success for r in runs])
     heading = "ours" if args.gripper_close_s is None else f"ours, gripper_close_s {args.gripper_close_s:g}"
-    if beside := beside_paper(args.task, ours, heading):
+    if beside := beside_paper(task, ours, heading):
         print("\n".join(["", *beside]))
     return 0
 
@@ -122,14 +151,16 @@ def add_task_parser(sub: "argparse._SubParsersAction[argparse.ArgumentParser]") 
     verbs = task.add_subparsers(dest="verb", required=True)
     verbs.add_parser("list", help="tasks with a state machine").set_defaults(func=cmd_list)
     run = verbs.add_parser("run", help="one trial, as fast as the CPU allows")
-    run.add_argument("task", choices=list(POLICIES))
+    run.add_argument("task", nargs="?", choices=list(POLICIES), help="its built-in machine (or --machine)")
+    run.add_argument("--machine", help="a machine file (TOML, README: Machines); its task names the scene")
     run.add_argument("--seed", type=int, default=None, help="the scene's misalignments (default: nominal)")
     run.add_argument("--json", action="store_true", help="one JSON object instead of text")
     run.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="override a setting")
     add_scene_options(run)
     run.set_defaults(func=cmd_run)
     bench = verbs.add_parser("bench", help="seeds 0..N-1: success rate and the paper's table of means")
-    bench.add_argument("task", choices=list(POLICIES))
+    bench.add_argument("task", nargs="?", choices=list(POLICIES), help="its built-in machine (or --machine)")
+    bench.add_argument("--machine", help="a machine file (TOML, README: Machines); its task names the scene")
     bench.add_argument("--seeds", type=int, default=100)
     bench.add_argument("--workers", type=int, default=os.cpu_count(), help="processes (default: every core)")
     bench.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="override a setting")

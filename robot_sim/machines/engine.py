@@ -99,10 +99,12 @@ class SpecPolicy(Policy):
         exit_name = exit_name or report.exit.value
         state = self.spec.states[self.state]
         numbers, poses = self._kept(report)
+        readings: dict[str, float | str] = {}  # every guard read on the way, for the record
         for i, t in enumerate(state.transitions):
             if not t.takes(exit_name):
                 continue
-            readings = {_label(g): self._read(g, report, numbers, poses) for g in t.when}
+            for g in t.when:
+                readings.setdefault(_label(g), self._read(g, report, numbers, poses))
             if all(_holds(g, readings[_label(g)], numbers) for g in t.when):
                 target = self._resolve(t.to)
                 used_up = t.to if target != t.to else None

@@ -352,7 +352,7 @@ class MachineSpec(StrictModel):
             )
         except ValidationError as err:
             for e in err.errors():
-                field = ".".join(str(p) for p in e["loc"][1:] if p != state.behavior) or "command"
+                field = ".".join(str(p) for p in e["loc"] if p != state.behavior) or "command"
                 yield f"{here}.command.{field}: {e['msg'].removeprefix('Value error, ')}"
 
     def _visit_bounds(self, state: State) -> list[float]:

@@ -13,6 +13,7 @@ from robot_sim.behaviors import behavior_for
 from robot_sim.errors import UnknownNameError
 from robot_sim.machines.engine import policy_class
 from robot_sim.machines.library import builtin_machines
+from robot_sim.machines.spec import MachineSpec
 from robot_sim.params import NAMED
 from robot_sim.policies.base import Decision, Finish, Policy, Step
 from robot_sim.policies.lid import Lid
@@ -90,17 +91,19 @@ def run_onboard(
     sim: Simulation | None = None,
     overrides: dict[str, object] | None = None,
     gripper_close_s: float | None = None,
+    machine: MachineSpec | None = None,
 ) -> TaskRun:
-    """Run `task`'s state machine on `sim` (default: a fresh one of the task's scene, `seed`,
-    its gripper closing with time constant `gripper_close_s`)."""
+    """Run `task`'s state machine (or `machine`, written as data) on `sim` (default: a fresh one
+    of the task's scene, `seed`, its gripper closing with time constant `gripper_close_s`)."""
     if sim is not None and gripper_close_s is not None:
         raise ValueError("gripper_close_s is the scene's: give it to the Simulation passed in, not here")
-    machine = Machine(policy_for(task, overrides))
+    policy = policy_class(machine)(overrides) if machine is not None else policy_for(task, overrides)
+    running = Machine(policy)
     sim = sim or Simulation(task, seed, gripper_close_s=gripper_close_s)
-    step: Step | None = machine.start(sim.state().port)
+    step: Step | None = running.start(sim.state().port)
     while step is not None:
-        step = machine.advance(sim.run_behavior(behavior_for(step.params)))
-    assert machine.exit is not None and machine.finish is not None
+        step = running.advance(sim.run_behavior(behavior_for(step.params)))
+    assert running.exit is not None and running.finish is not None
     verdict = sim.task()
     return TaskRun(
         task,
@@ -108,11 +111,11 @@ def run_onboard(
         verdict.success,
         verdict.progress,
         verdict.unit,
-        machine.exit.value,
-        machine.finish.why,
+        running.exit.value,
+        running.finish.why,
         sim.time,
-        machine.steps,
-        machine.policy.figures(),
+        running.steps,
+        running.policy.figures(),
     )
 
 
