@@ -78,10 +78,7 @@ class CommandRunner:
 
     def _note_machine(self, record: CommandRecord) -> None:
         run = self._executor.run
-        if run is not None:
-            record.machine = run.view()
-        elif record.machine is not None:  # it ended: keep the last view, nothing pending
-            record.machine = {**record.machine, "pending": None}
+        record.machine = run.view() if run is not None else self._executor.ended_view
 
     def stop_all(self) -> Stopped:
         """Abort the running command, drop the queue, hold the robot where it is."""

@@ -112,6 +112,7 @@ class CommandExecutor:
     def __init__(self, sim: Simulation) -> None:
         self.sim = sim
         self.run: MachineRun | None = None  # the running state machine command's, if any
+        self.ended_view: dict[str, Any] | None = None  # the last machine's view as it ended
         self._behavior: BehaviorParams | None = None  # the running behavior command's, if any
 
     @property
@@ -215,6 +216,7 @@ class CommandExecutor:
 
     def _over(self, run: MachineRun) -> Ended:
         self.run = None
+        self.ended_view = run.view()
         return Ended(run.machine.steps[-1], run.machine.report())
 
     @staticmethod

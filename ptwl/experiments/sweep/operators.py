@@ -218,6 +218,7 @@ class OnboardOperator(Operator):
         self._decision: tuple[float, int] | None = None  # (when to answer, which decision)
         self._answered: set[int] = set()
         self.decisions_answered = 0
+        self.decision_thinks_s: list[float] = []  # [s] each decision's think time, in order
 
     def begin(self, now: float, port: Pose) -> list[Request]:
         machine = read_machine(Path(self.spec.machine)) if self.spec.machine else None
@@ -250,6 +251,7 @@ class OnboardOperator(Operator):
         if self._decision is None or self._decision[1] != number:
             think = self._think.uniform(*THINK_SPREAD) * self.spec.think_s
             self.think_s += think
+            self.decision_thinks_s.append(think)
             self._decision = (now + think, number)
         return []
 
