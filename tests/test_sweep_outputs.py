@@ -4,6 +4,7 @@ and the findings it exists for (ground time linear in RTT, onboard flat)."""
 import itertools
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -262,3 +263,43 @@ def test_the_fit_judges_linearity_on_the_means_and_says_where_onboard_wins() -> 
     assert break_even_s(ground, onboard) == pytest.approx(10.0 / 1.9)
     assert break_even_s(ground, Fit(2.0, 0.0, 1.0, 1.0)) is None
     assert Fit.of([1.0, 1.0], [2.0, 3.0]) is None  # one RTT: no line
+
+
+def test_autonomy_levels_full_is_flat_and_confirming_every_step_grows_one_rtt_per_decision(
+    tmp_path: Path,
+) -> None:
+    """`--autonomy off,full` on the plug at RTT 0 and 5 s: the report's sweet-spot table names a
+    level per RTT; at `off` every decision waits a round trip (and the same seeded think time at
+    both RTTs), so the task time grows by about one RTT per decision taken before the last
+    behavior's end; at `full` nothing waits."""
+    rows = run_sweep(
+        SweepSettings("plug", [0.0, 5.0], 1, ["onboard"], str(tmp_path), autonomies=["off", "full"])
+    )
+    by = {(r["autonomy"], r["rtt_s"]): r for r in rows}
+    assert set(by) == {("off", 0.0), ("off", 5.0), ("full", 0.0), ("full", 5.0)}
+    assert all(r["success"] for r in rows)
+    assert by[("full", 0.0)]["decisions_waited"] == by[("full", 5.0)]["decisions_waited"] == 0
+    # Flat: only how long the arm has settled when the command arrives differs (4 ms seen).
+    assert by[("full", 5.0)]["task_time_s"] == pytest.approx(by[("full", 0.0)]["task_time_s"], abs=0.05)
+    waits = by[("off", 5.0)]["decisions_waited"]
+    assert waits == by[("off", 0.0)]["decisions_waited"] >= 3  # every transition, the last one too
+    grown_s = by[("off", 5.0)]["task_time_s"] - by[("off", 0.0)]["task_time_s"]
+    assert grown_s == pytest.approx(5.0 * (waits - 1), rel=0.1)  # the last waits after the last end
+    assert by[("off", 5.0)]["decision_wait_s"] - by[("off", 0.0)]["decision_wait_s"] == pytest.approx(
+        5.0 * waits, abs=0.002 * waits
+    )
+    header = next(line for line in (tmp_path / "trials.csv").read_text().splitlines())
+    assert header.startswith("task,operator,autonomy,") and ",decisions_waited,decision_wait_s," in header
+    report = (tmp_path / "report.md").read_text()
+    assert (
+        "## Autonomy levels: the sweet spot" in report and (tmp_path / "autonomy_vs_rtt.png").stat().st_size
+    )
+    assert (
+        "| RTT [s] | off: success, time [s], waits | full: success, time [s], waits | sweet spot |" in report
+    )
+    for rtt in (0, 5):  # both succeed; full is faster
+        assert re.search(
+            rf"^\| {rtt} \| 100 %, [\d.]+, {waits}\.0 \| 100 %, [\d.]+, 0\.0 \| \*\*full\*\* \|$",
+            report,
+            re.M,
+        ), report
