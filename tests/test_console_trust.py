@@ -5,6 +5,7 @@ Each test reproduces what misled an operator on main and asserts what the page s
 
 import time
 from collections.abc import Iterator
+from pathlib import Path
 
 import httpx
 import pytest
@@ -26,6 +27,7 @@ from tests.console_page import (
 )
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
+ARTIFACTS = Path(__file__).resolve().parent.parent / "artifacts"
 
 
 def set_link(link: ServiceProcess, **profile: object) -> None:
@@ -393,11 +395,11 @@ def test_a_tasks_state_machine_runs_from_its_tab_and_shows_each_step(browser, st
     robot, _, console = stack
     httpx.post(robot.url + "/api/scene", json={"name": "plug", "seed": 4}).raise_for_status()
     watcher, page = open_consoles(browser, console.url, False, True)
-    page.get_by_role("tab", name="Tasks").click()
-    watcher.get_by_role("tab", name="Tasks").click()
-    assert watcher.get_by_role("button", name="Run state machine").is_disabled()
-    assert "until the prongs drop in" in page.get_by_text("slide along y").inner_text()  # its procedure
-    before = send(page, "Run state machine")
+    page.get_by_role("tab", name="Machines").click()
+    watcher.get_by_role("tab", name="Machines").click()
+    assert watcher.get_by_role("button", name="Run machine").is_disabled()
+    assert "until the prongs drop in" in page.get_by_text("slide along y").first.inner_text()  # its procedure
+    before = send(page, "Run machine")
     wait_status(page, "running", after=before)
     until(page, "document.querySelector('#ptwl-steps')?.dataset.count === '2'", timeout=30_000)
     wait_status(page, "completed", timeout_s=10.0, after=before)
@@ -412,6 +414,59 @@ def test_a_tasks_state_machine_runs_from_its_tab_and_shows_each_step(browser, st
     assert record.type == "state_machine" and record.exit == "completed" and record.sender
     page.close()
     watcher.close()
+
+
+def test_the_machines_tab_checks_an_edit_as_typed_draws_the_graph_and_answers_a_decision(  # type: ignore[no-untyped-def]
+    browser, stack, calm
+) -> None:
+    """Issue 31's console part: the plug's machine file in the tab, its graph drawn; an edit out of
+    range is refused under the text in the robot's words (state and field) and Run is off; run at
+    autonomy `low` over a 0.5 s link, the approach's end waits for a decision: the tab shows what it
+    proposes and why, Confirm sends it across the link, and the machine completes. A screenshot of
+    the tab with the decision pending goes to artifacts/ (docs/machines_tab.png is one)."""
+    robot, link, console = stack
+    set_link(link, uplink=0.25, downlink=0.25)
+    httpx.post(robot.url + "/api/scene", json={"name": "plug", "seed": 4}).raise_for_status()
+    page = open_console(browser, console.url, viewport=(1280, 900))
+    page.get_by_role("tab", name="Machines").click()
+    text = page.locator("textarea").first  # the machine's TOML (the only multi-line field)
+    until(page, "document.querySelector('textarea')?.value.includes('name = \"plug\"')", timeout=20_000)
+    original = text.input_value()
+    drawn = "[...document.querySelectorAll('img')].some(i => i.naturalWidth >= 400)"  # the graph
+    until(page, drawn, timeout=10_000)
+    text.fill(
+        original.replace("duration = 4.0, force_threshold = 6.0", "duration = 700.0, force_threshold = 6.0")
+    )
+    check = page.locator("#ptwl-check-state_machine")
+    until(page, "document.querySelector('#ptwl-check-state_machine')?.dataset.valid === '0'", timeout=10_000)
+    assert (
+        "states.approach.command.duration: must be in (0, 600] s, got 700"
+        in page.locator("body").inner_text()
+    )
+    assert page.get_by_role("button", name="Run machine").is_disabled()
+    text.fill(original)
+    until(page, "document.querySelector('#ptwl-check-state_machine')?.dataset.valid === '1'", timeout=10_000)
+    assert check.get_attribute("data-valid") == "1"
+    inputs_for(page, "Autonomy").first.click()
+    page.get_by_role("option", name="low", exact=True).click()
+    before = send(page, "Run machine")
+    wait_status(page, "running", after=before)
+    until(page, "document.querySelector('#ptwl-machine')?.dataset.pending === '1'", timeout=30_000)
+    shown = page.locator("#ptwl-machine").inner_text()
+    assert "decision 1 waits" in shown and "approach ended" in shown and "proposes relieve" in shown
+    assert "(level low)" in shown
+    page.screenshot(path=str(ARTIFACTS / "machines-tab-decision.png"))
+    page.get_by_role("button", name="Confirm").click()
+    wait_status(page, "completed", timeout_s=20.0, after=before)
+    with RobotClient(robot.url) as client:
+        record = client.commands(limit=1)[0]
+    assert record.exit == "completed" and record.machine is not None
+    assert [(h["state"], h["how"]) for h in record.machine["history"]] == [
+        ("approach", "confirm"),
+        ("relieve", "autonomous"),
+    ]
+    assert record.machine["history"][0]["waited_s"] >= 0.5  # at least the round trip
+    page.close()
 
 
 YELLOW_HUE = (40.0, 62.0)  # the contemplated marker (250, 204, 21), also seen through a fixture

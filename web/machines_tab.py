@@ -67,9 +67,14 @@ def builtin_text(task: str) -> str:
 def decision_html(machine: dict[str, Any] | None, now_sim_s: float | None) -> Markup:
     """The running machine's line: its state, or its pending decision in full."""
     if not machine:
-        return Markup('<div style="font-size:0.85em;padding:0 4px;color:#6b7280">no machine running</div>')
+        return Markup(
+            '<div id="ptwl-machine" data-state="" data-pending="" '
+            'style="font-size:0.85em;padding:0 4px;color:#6b7280">no machine running</div>'
+        )
     pending = machine.get("pending")
-    head = Markup("<b>{}</b> (autonomy {}), state <b>{}</b>, {} decisions waited ({:.1f} s)").format(
+    head = Markup(
+        "<b>{}</b> (autonomy {}), state <b>{}</b>; decisions asked {}, waited {:.1f} s so far"
+    ).format(
         machine.get("name", ""),
         machine.get("autonomy", ""),
         machine.get("state", ""),
@@ -77,7 +82,10 @@ def decision_html(machine: dict[str, Any] | None, now_sim_s: float | None) -> Ma
         float(machine.get("waited_s", 0.0)),
     )
     if not pending:
-        return Markup('<div style="font-size:0.85em;padding:0 4px">{}</div>').format(head)
+        return Markup(
+            '<div id="ptwl-machine" data-state="{}" data-pending="" '
+            'style="font-size:0.85em;padding:0 4px">{}</div>'
+        ).format(machine.get("state", ""), head)
     report = pending.get("report") or {}
     readings = ", ".join(
         f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
@@ -91,10 +99,13 @@ def decision_html(machine: dict[str, Any] | None, now_sim_s: float | None) -> Ma
         else f"the machine ends {pending.get('target')}"
     )
     return Markup(
-        '<div style="font-size:0.85em;padding:4px;border:2px solid #facc15;border-radius:4px">{}<br>'
+        '<div id="ptwl-machine" data-state="{}" data-pending="{}" '
+        'style="font-size:0.85em;padding:4px;border:2px solid #facc15;border-radius:4px">{}<br>'
         "<b>decision {} waits{}</b> (level {}): {} ended <b>{}</b> ({}); peak {:.1f} N, {:.2f} N m{}<br>"
         "proposes <b>{}</b>: {}</div>"
     ).format(
+        machine.get("state", ""),
+        pending.get("decision"),
         head,
         pending.get("decision"),
         waited,
