@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from ptwl.experiments.sweep.operators import POLL_S
 from ptwl.experiments.sweep.robot import Accepted, Asked, Decide, Done, Post, Refused, VirtualRobot
 from ptwl.experiments.sweep.spec import TrialSpec
 from ptwl.experiments.sweep.trial import simulate
@@ -188,3 +189,16 @@ def test_over_the_link_a_decision_waits_exactly_the_round_trip_and_the_think_tim
         assert entry["level"] == "high"
         assert entry["waited_s"] == pytest.approx(3.0 + think, abs=0.002)
     assert trial.robot.decision_wait_s == pytest.approx(sum(3.0 + t for t in thinks), abs=0.002 * len(thinks))
+
+
+def test_a_lost_decision_event_is_found_by_the_operators_status_question() -> None:
+    """Half the events lost (the decision's announcement among them): the operator asks for the
+    command's status once it has waited its patience, learns of the pending decision from the
+    answer, and confirms it; the trial completes as it would have, only later."""
+    clean = simulate(TrialSpec("quick_connect", "onboard", 1.0, 0.0, 0.0, 0, autonomy="off"))
+    lossy = simulate(TrialSpec("quick_connect", "onboard", 1.0, 0.0, 0.9, 0, autonomy="off"))
+    assert clean.operator.end == lossy.operator.end == "completed"
+    assert lossy.lost >= 2 and lossy.operator.requeries >= 2
+    assert lossy.robot.decisions_waited == clean.robot.decisions_waited >= 2
+    # Found by a status question, one patience later (the round trip + POLL_S): 14 s more here.
+    assert lossy.robot.decision_wait_s > clean.robot.decision_wait_s + POLL_S
