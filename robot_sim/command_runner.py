@@ -68,6 +68,19 @@ class CommandRunner:
             self.book.changed(running)
         return running
 
+    def scene_reloaded(self) -> None:
+        """The physics faulted and the scene reloaded at t = 0: a machine that waited for a
+        decision ends `fault` (a running behavior's fault ends it through its report)."""
+        running = self.book.running
+        if running is not None:
+            self._end_waiting(running, self._executor.fault_waiting())
+
+    def _end_waiting(self, running: CommandRecord, ended: Ended | None) -> None:
+        if ended is not None:
+            self._note_machine(running)
+            assert ended.command is not None
+            self.book.finish(ended.command)
+
     def machine_view(self) -> dict[str, object] | None:
         """The running machine's state, pending decision and decisions (telemetry's `machine`)."""
         run = self._executor.run
@@ -87,8 +100,6 @@ class CommandRunner:
         report = self.sim.hold_position()  # ends the running behavior `aborted`, "stopped"
         if report is not None:
             self.behavior_ended(report)
-        elif running is not None and (ended := self._executor.stop_waiting()) is not None:
-            self._note_machine(running)  # a machine waiting for a decision: no behavior runs
-            assert ended.command is not None
-            self.book.finish(ended.command)
+        elif running is not None:  # a machine waiting for a decision: no behavior runs
+            self._end_waiting(running, self._executor.stop_waiting())
         return Stopped(running.id if running else None, [r.id for r in dropped])

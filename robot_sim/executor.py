@@ -10,30 +10,36 @@ was, no drift) until a decision arrives (`decide`). STOP and faults end a machin
 told, and ends `aborted` or `fault`.
 """
 
+from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
 
 from robot_sim.behaviors import BehaviorParams, BehaviorReport, behavior_for
-from robot_sim.behaviors.base import Pose
+from robot_sim.behaviors.base import ExitCondition, Pose
 from robot_sim.errors import RobotSimError
 from robot_sim.machines.command import DecisionRequest, StateMachineParams
 from robot_sim.machines.engine import Proposal, SpecPolicy, policy_class
-from robot_sim.machines.spec import waits
+from robot_sim.machines.spec import TERMINALS, Autonomy, waits
 from robot_sim.policies import Machine, policy_for
 from robot_sim.policies.base import Decision
 from robot_sim.policies.run import StepRecord
 from robot_sim.sim import Simulation
 
 CommandParams = BehaviorParams | StateMachineParams
-HISTORY_MAX = 200  # decisions kept per machine for telemetry (a run's whole list is in its steps)
+HISTORY_MAX = 20  # the last decisions a machine's view keeps (telemetry, the record); its steps are all
 
 
 class DecisionError(RobotSimError):
-    """A decision that cannot be taken now (none pending, another one's, an unknown state)."""
+    """A decision that is not the robot's to take now: no machine waits, or for another one (409)."""
 
     def __init__(self, field_name: str, message: str) -> None:
         super().__init__(message)
         self.field = field_name
+
+
+class DecisionInvalid(DecisionError, ValueError):
+    """A decision naming what the machine does not have: an exit its state's behavior never ends
+    with, a state it has no such (422)."""
 
 
 @dataclass
@@ -69,12 +75,12 @@ class MachineRun:
     """A running state machine command: the machine, its autonomy, its decisions."""
 
     machine: Machine
-    autonomy: str
+    autonomy: Autonomy
     name: str
     pending: Pending | None = None
     asked: int = 0  # decisions that waited for the operator
     waited_s: float = 0.0  # [s] sim time spent waiting, in total
-    history: list[dict[str, Any]] = field(default_factory=list)
+    history: deque[dict[str, Any]] = field(default_factory=lambda: deque(maxlen=HISTORY_MAX))
 
     @property
     def spec_policy(self) -> SpecPolicy | None:
@@ -94,7 +100,7 @@ class MachineRun:
             "pending": self.pending.as_dict() if self.pending is not None else None,
             "decisions_waited": self.asked,
             "waited_s": self.waited_s,
-            "history": self.history[-20:],
+            "history": list(self.history),
         }
 
 
@@ -150,7 +156,7 @@ class CommandExecutor:
         if policy is None:
             return self._go(run, policy_decision=machine.policy.next(report))
         proposal = policy.propose(report)
-        if waits(proposal.level, run.autonomy):  # type: ignore[arg-type]
+        if waits(proposal.level, run.autonomy):
             run.asked += 1
             run.pending = Pending(
                 run.asked, proposal, report, self.sim.time, policy.preview(proposal, report)
@@ -182,12 +188,23 @@ class CommandExecutor:
                 f"stopped by the operator at decision {pending.number} ({pending.proposal.state})"
             )
             return self._over(run)
+        # Checked before anything changes: a refused decision leaves the wait as it was.
         if request.choice == "force":
             try:
                 proposal = policy.force(str(request.state), pending.report)
             except KeyError:
-                raise DecisionError("state", f"no state {request.state!r} in {run.name}") from None
+                states = ", ".join([*policy.spec.states, *TERMINALS])
+                raise DecisionInvalid(
+                    "state", f"no state {request.state!r} in {run.name} ({states})"
+                ) from None
         elif request.choice == "outcome":
+            exits = policy.spec.states[pending.proposal.state].exits()
+            if request.outcome not in exits:
+                raise DecisionInvalid(
+                    "outcome",
+                    f"a {pending.report.behavior} in state {pending.proposal.state} ends "
+                    f"{', '.join(exits)}, not {request.outcome!r}",
+                )
             proposal = policy.propose(pending.report, request.outcome)
         else:
             proposal = pending.proposal
@@ -197,13 +214,26 @@ class CommandExecutor:
         return self._go(run, policy.commit(proposal, pending.report))
 
     def stop_waiting(self) -> Ended | None:
-        """STOP while a decision waits: the machine ends `aborted` (no behavior runs to abort)."""
+        """STOP while no behavior runs (a decision waits): the machine ends `aborted`."""
+        return self._end_between_steps("stopped", ExitCondition.ABORTED)
+
+    def fault_waiting(self) -> Ended | None:
+        """The physics faulted (the scene reloaded) while no behavior ran: a machine waiting
+        for a decision ends `fault`; it never goes on in the fresh scene."""
+        return self._end_between_steps("the physics faulted", ExitCondition.FAULT)
+
+    def _end_between_steps(self, what: str, exit_condition: ExitCondition) -> Ended | None:
         run = self.run
-        if run is None or run.pending is None:
+        if run is None or self.sim.behavior is not None:
             return None
         pending = run.pending
         run.pending = None
-        run.machine.stop(f"stopped while decision {pending.number} waited ({pending.proposal.state})")
+        where = (
+            f"while decision {pending.number} waited ({pending.proposal.state})"
+            if pending
+            else "between steps"
+        )
+        run.machine.stop(f"{what} {where}", exit_condition)
         return self._over(run)
 
     # ------------------------------------------------------------------ parts
@@ -221,6 +251,4 @@ class CommandExecutor:
 
     @staticmethod
     def _log(run: MachineRun, proposal: Proposal, how: str, waited_s: float) -> None:
-        entry = {**proposal.as_dict(), "how": how, "waited_s": waited_s}
-        run.history.append(entry)
-        del run.history[:-HISTORY_MAX]
+        run.history.append({**proposal.as_dict(), "how": how, "waited_s": waited_s})

@@ -14,7 +14,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from robot_sim.command_book import FutureSentAtError, QueueFullError
 from robot_sim.command_request import error_detail, field_errors
 from robot_sim.errors import UnknownNameError
-from robot_sim.executor import DecisionError
+from robot_sim.executor import DecisionError, DecisionInvalid
 from server.commands import IdRecordError
 
 
@@ -61,8 +61,16 @@ def install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(DecisionError)
     async def _decision(_: Request, exc: DecisionError) -> JSONResponse:
         # 409: well-formed, but not the decision the robot is waiting for (or none is).
-        item = {"field": exc.field, "message": str(exc), "type": "decision_conflict"}
-        return JSONResponse({"detail": f"{exc.field}: {exc}", "errors": [item]}, status_code=409)
+        # 422: it names what the machine has not; 409: well-formed, but not the decision waiting.
+        invalid = isinstance(exc, DecisionInvalid)
+        item = {
+            "field": exc.field,
+            "message": str(exc),
+            "type": "value_error" if invalid else "decision_conflict",
+        }
+        return JSONResponse(
+            {"detail": f"{exc.field}: {exc}", "errors": [item]}, status_code=422 if invalid else 409
+        )
 
     @app.exception_handler(QueueFullError)
     async def _queue_full(_: Request, exc: QueueFullError) -> JSONResponse:

@@ -480,7 +480,9 @@ COMMAND_STATUS_RESPONSES: dict[int | str, dict[str, Any]] = {
 DECISION_RESPONSES: dict[int | str, dict[str, Any]] = {
     **COMMAND_STATUS_RESPONSES,
     409: _error("that command is not the running machine, or that decision is not the pending one"),
-    422: _error("the body does not validate (the error names the field)"),
+    422: _error(
+        "the body does not validate, or names an outcome or state the machine has not (named in the error)"
+    ),
 }
 
 FRAME_CONFLICT_RESPONSES: dict[int | str, dict[str, Any]] = {

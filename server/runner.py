@@ -191,6 +191,8 @@ class SimRunner:
         self._pacer.advance(on_report=self._command_done)
         if self.sim.fault_count != faults_before:
             self.last_fault = self.sim.last_fault
+            with self.book.held():
+                self._commands.scene_reloaded()  # a machine waiting for a decision ends `fault`
             self._scene_loaded()  # the physics faulted: the scene reloaded at t = 0
 
     def _scene_loaded(self) -> None:

@@ -202,3 +202,29 @@ def test_a_lost_decision_event_is_found_by_the_operators_status_question() -> No
     assert lossy.robot.decisions_waited == clean.robot.decisions_waited >= 2
     # Found by a status question, one patience later (the round trip + POLL_S): 14 s more here.
     assert lossy.robot.decision_wait_s > clean.robot.decision_wait_s + POLL_S
+
+
+def test_a_refused_decision_leaves_the_wait_as_it_was() -> None:
+    robot, _ = started("low")
+    for bad in (
+        DecisionRequest(decision=1, choice="force", state="nowhere"),
+        DecisionRequest(decision=1, choice="outcome", outcome="completed"),  # a PTWL never ends so
+    ):
+        reply = robot.handle(Decide("op-1", bad))
+        assert isinstance(reply, Refused)
+        assert machine_of(robot)["pending"]["decision"] == 1 and robot.book.running is not None
+    robot.handle(Decide("op-1", DecisionRequest(decision=1, choice="confirm")))
+    assert robot.sim.behavior is not None  # the relieve runs
+
+
+def test_a_physics_fault_while_a_decision_waits_ends_the_machine_fault() -> None:
+    """The scene reloads at t = 0 after a fault: the machine must not go on in it (its
+    variables and poses are of the old one); it ends `fault` and the queue is free."""
+    robot, _ = started("low")
+    robot.sim.data.qvel[0] = float("nan")  # the next step faults (server/runner.py's test hook)
+    done = robot.tick_until(robot.sim.time + 1.0)
+    assert isinstance(done, Done) and done.outcome.exit == "fault", done
+    assert "the physics faulted while decision 1 waited (press)" in done.outcome.detail
+    assert robot.book.running is None and robot.sim.fault_count == 1
+    reply = robot.handle(Decide("op-1", DecisionRequest(decision=1, choice="confirm")))
+    assert isinstance(reply, Refused)  # nothing waits any more

@@ -65,7 +65,18 @@ def test_a_pending_decision_is_in_the_status_and_telemetry_and_answered_by_numbe
     )
     with pytest.raises(RobotError) as other:
         robot.decide(accepted.id + 1_000_000, decision=1, choice="confirm")
-    assert other.value.status_code == 409
+    assert other.value.status_code == 404  # no such command
+    with pytest.raises(RobotError) as invalid:
+        robot.decide(accepted.id, decision=1, choice="force", state="presss")
+    assert invalid.value.status_code == 422 and "no state 'presss' in press_then_relieve" in str(
+        invalid.value.detail
+    )
+    with pytest.raises(RobotError) as never:
+        robot.decide(accepted.id, decision=1, choice="outcome", outcome="completed")
+    assert never.value.status_code == 422
+    assert "a ptwl in state press ends goal_reached, wrench_breach, timeout, not 'completed'" in str(
+        never.value.detail
+    )
     answered = robot.decide(accepted.id, decision=1, choice="confirm")
     assert answered.machine is not None and answered.machine["pending"] is None
     done = robot.wait(accepted.id, timeout=15.0)

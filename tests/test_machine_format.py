@@ -16,7 +16,7 @@ from robot_sim.errors import ConfigError
 from robot_sim.machines.command import DecisionRequest, StateMachineParams
 from robot_sim.machines.engine import policy_class
 from robot_sim.machines.library import builtin_machines, read_machine
-from robot_sim.machines.spec import AUTONOMY_LEVELS, MachineSpec, waits
+from robot_sim.machines.spec import AUTONOMY_LEVELS, MAX_MACHINE_STEPS, MachineSpec, waits
 from robot_sim.policies import POLICIES, Finish, Step, run_onboard
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -307,3 +307,115 @@ def test_flexbe_levels_a_transition_waits_unless_below_the_runs_autonomy() -> No
     assert table[("high", "low")] and table[("high", "high")] and not table[("high", "full")]
     assert table[("full", "full")]  # `full` always asks
     assert sum(table.values()) == 10  # level index >= autonomy index: 4 + 3 + 2 + 1
+
+
+# ----------------------------------------------------- what an outside review tried (issue 31)
+def test_a_variable_read_before_every_way_there_sets_it_is_refused() -> None:
+    machine = base()
+    machine["states"]["press"]["command"]["duration"] = {"var": "later", "offset": 1.0}
+    machine["states"]["relieve"]["set"] = {"later": {"measure": "peak_force"}}
+    assert "states.press.command: reads 'later' before every way here sets it" in refusal(machine)
+    # Set on one way in but not the other: still refused where the ways meet.
+    machine = base()
+    machine["states"]["relieve"]["transitions"] = [
+        {"when": [{"measure": "travel", "since": "pressed_at", "op": ">", "value": 0.0}], "to": "completed"},
+        {"to": "failed"},
+    ]
+    MachineSpec.model_validate(machine)  # relieve is entered only from press, which sets it
+    machine["start"] = "relieve"
+    said = refusal(machine)
+    assert "states.relieve.transitions[0].when[0]: reads 'pressed_at' before every way sets it" in said
+
+
+def test_names_a_variable_may_not_take_are_refused() -> None:
+    machine = base()
+    machine["states"]["relieve"]["set"] = {"depth": {"measure": "peak_force"}}  # a setting's
+    assert "states.relieve.set.depth: 'depth' is taken (a setting)" in refusal(machine)
+    machine["states"]["relieve"]["set"] = {"start": {"measure": "port"}}
+    assert "states.relieve.set.start: 'start' is taken (the start pose)" in refusal(machine)
+    machine["states"]["relieve"]["set"] = {"pressed_at": {"measure": "peak_force"}}  # a pose in press
+    assert "'pressed_at' is a pose elsewhere; a name keeps one kind" in refusal(machine)
+    machine["states"]["relieve"]["set"] = {"said": {"measure": "detail"}}  # text is not a number
+    with pytest.raises(ValidationError, match=r"states\.relieve\.set\.said\.measure"):
+        MachineSpec.model_validate(machine)
+    machine["states"]["relieve"]["set"] = {"count": {"measure": "visits"}}  # no state named
+    with pytest.raises(ValidationError, match=r"states\.relieve\.set\.count\n.*visits needs `state`"):
+        MachineSpec.model_validate(machine)
+
+
+def test_a_command_out_of_range_at_a_settings_extreme_is_refused() -> None:
+    machine = base()
+    machine["settings"]["force_n"] = {"value": 20.0, "min": 1.0, "max": 1e308}
+    machine["states"]["press"]["command"]["force_threshold"] = {"var": "force_n"}
+    said = refusal(machine)
+    assert (
+        "states.press.command.force_threshold: must be in (0, 500] N, got 1e+308 (with depth = 0.001" in said
+    )
+    # Within the file's range, an override the command would refuse is refused when sent.
+    machine["settings"]["force_n"]["max"] = 500.0
+    spec = MachineSpec.model_validate(machine)
+    assert StateMachineParams(machine=spec, overrides={"force_n": 400.0}).overrides == {"force_n": 400.0}
+
+
+def test_deep_nesting_is_refused_without_recursing() -> None:
+    machine = base()
+    deep: Any = 0.01
+    for _ in range(5000):
+        deep = [deep]
+    machine["states"]["relieve"]["command"] = {"type": "rwe", "duration": deep}
+    assert "nested deeper than any command's values (3 levels)" in refusal(machine)
+
+
+def test_a_value_filled_in_out_of_range_ends_the_machine_failed_naming_the_field() -> None:
+    machine = base()
+    machine["states"]["press"]["set"]["n"] = {"measure": "visits", "state": "press"}
+    machine["states"]["relieve"]["command"] = {
+        "type": "rwe",
+        "duration": {"var": "n", "scale": -5.0, "offset": 1.0},
+    }
+    spec = MachineSpec.model_validate(machine)  # the duration reads a report's variable: checked as filled in
+    policy = policy_class(spec)()
+    policy.first(HOME)
+    ended = policy.next(report(ExitCondition.WRENCH_BREACH, down(0.003)))
+    assert isinstance(ended, Finish) and not ended.completed
+    assert ended.why.endswith(
+        "relieve's command cannot be filled in: duration: must be in (0, 600] s, got -4"
+    )
+    assert policy.state == "press" and policy.visits["relieve"] == 0  # never entered
+
+
+def test_guards_measured_from_different_poses_read_each_their_own() -> None:
+    machine = base()
+    machine["states"]["press"]["transitions"] = [
+        {
+            "on": ["wrench_breach"],
+            "when": [
+                {"measure": "travel", "op": ">=", "value": 0.05},  # since start: 0.105
+                {"measure": "travel", "since": "mid", "op": "<", "value": 0.01},  # since mid: 0.005
+            ],
+            "to": "relieve",
+        },
+        {"to": "failed"},
+    ]
+    machine["states"]["press"]["set"] = {}
+    machine["states"]["first"] = {
+        "command": {"type": "rwe"},
+        "set": {"mid": {"measure": "port"}},
+        "transitions": [{"to": "press"}],
+    }
+    machine["start"] = "first"
+    policy = policy_class(MachineSpec.model_validate(machine))()
+    policy.first(HOME)
+    assert isinstance(policy.next(report(ExitCondition.COMPLETED, down(0.1))), Step)  # mid: 100 mm down
+    decided = policy.next(report(ExitCondition.WRENCH_BREACH, down(0.105)))
+    assert isinstance(decided, Step) and decided.state == "relieve", decided
+    assert "travel(tool z) 0.105, travel(tool z since mid) 0.005" in decided.why
+
+
+def test_a_machine_runs_at_most_its_step_bound() -> None:
+    states = {
+        f"s{i}": {"command": {"type": "rwe"}, "max_visits": 200, "transitions": [{"to": f"s{(i + 1) % 64}"}]}
+        for i in range(64)
+    }
+    spec = MachineSpec.model_validate({"name": "ring", "start": "s0", "states": states})
+    assert policy_class(spec)().max_steps() == MAX_MACHINE_STEPS == 400

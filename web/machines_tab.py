@@ -46,7 +46,7 @@ class MachineText(_Typed):
     def _parsed(self) -> dict[str, Any]:
         try:
             return tomllib.loads(self.texts[0])
-        except tomllib.TOMLDecodeError as err:
+        except (tomllib.TOMLDecodeError, RecursionError) as err:  # nested thousands deep: not a machine
             raise FieldError(f"not TOML: {err}") from None
 
     @property
@@ -154,6 +154,7 @@ class MachinesTab(RequestTab):
         self.typed: dict[str, Any] = {"machine": self.machine}  # the text: not a number, same contract
         self.running: dict[str, Any] | None = None  # telemetry's `machine`
         self._graph_key: tuple[Any, ...] | None = None
+        self._checked: tuple[str | None, MachineSpec | None] = (None, None)  # (text, its machine)
         self.task.on_update(lambda _: self._task_picked())
         self.machine.on_update(lambda _: self._draw())
         self._draw()
@@ -191,10 +192,13 @@ class MachinesTab(RequestTab):
         task = str(self.task.value)
         if not self.edited():
             return builtin_machines().get(task)
-        try:
-            return MachineSpec.model_validate(self.machine.value)
-        except (FieldError, ValidationError):
-            return None
+        text = self.machine.text
+        if self._checked[0] != text:  # validated once per text, not on every telemetry change
+            try:
+                self._checked = (text, MachineSpec.model_validate(self.machine.value))
+            except (FieldError, ValidationError):
+                self._checked = (text, None)
+        return self._checked[1]
 
     # ----------------------------------------------------- the running one
     def show_running(self, machine: dict[str, Any] | None, now_sim_s: float | None, may_decide: bool) -> None:

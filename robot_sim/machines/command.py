@@ -49,30 +49,34 @@ class StateMachineParams(Expiring):
             raise ValueError(
                 "give either task (a built-in machine) or machine (a whole one), not both or neither"
             )
-        if self.task is None and self.machine is not None:
-            self.task = self.machine.task
-        if self.spec() is None and self.autonomy != "full":
+        spec = self.spec()
+        if spec is None and self.autonomy != "full":
             raise ValueError(
                 f"autonomy: the {self.task} machine is Python (its decisions have no levels); "
                 "it runs at `full` only"
             )
+        name = spec.name if spec is not None else str(self.task)
         model = (
-            settings_model(self.machine)
-            if self.machine
-            else NAMED.need(NAMED.task_settings, "tasks")(self.task)
+            settings_model(spec) if spec is not None else NAMED.need(NAMED.task_settings, "tasks")(self.task)
         )
         try:
-            model.model_validate(self.overrides)
+            settings = model.model_validate(self.overrides)
         except ValidationError as err:
             said = "; ".join(f"{'.'.join(map(str, e['loc']))}: {e['msg']}" for e in err.errors())
-            raise ValueError(
-                f"overrides for {self.machine.name if self.machine else self.task}: {said}"
-            ) from None
+            raise ValueError(f"overrides for {name}: {said}") from None
+        if spec is not None:  # its commands as these settings fill them in
+            problems = list(spec.command_problems(settings.model_dump()))
+            if problems:
+                raise ValueError(f"with these overrides, {name}: " + "; ".join(problems))
         return self
 
     def spec(self) -> MachineSpec | None:
         """The machine as data (given, or the task's built-in file), None for a Python one."""
         return self.machine or builtin_machines().get(self.task or "")
+
+    def scene(self) -> str | None:
+        """The scene it needs: its task's, or the one its machine names (None: any)."""
+        return self.task or (self.machine.task if self.machine is not None else None)
 
 
 class DecisionRequest(StrictModel):

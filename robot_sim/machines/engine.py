@@ -13,10 +13,11 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
-from pydantic import BaseModel, Field, create_model
+from pydantic import BaseModel, Field, ValidationError, create_model
 
 from robot_sim.behaviors import BehaviorReport, Pose
 from robot_sim.machines.spec import (
+    MAX_MACHINE_STEPS,
     START_POSE,
     TERMINALS,
     Autonomy,
@@ -83,14 +84,20 @@ class SpecPolicy(Policy):
     # --------------------------------------------------------------- Policy
     def first(self, port: Pose) -> Step:
         self.poses[START_POSE] = port
-        return self._enter(self.spec.start, "")
+        step = self._enter(self.spec.start, "")
+        # The start's command reads settings only (spec.py, _read_before_set), checked with the
+        # run's overrides before it was accepted (command.py): it always fills in.
+        assert isinstance(step, Step), step
+        return step
 
     def next(self, report: BehaviorReport) -> Decision:
         return self.commit(self.propose(report), report)
 
     def max_steps(self) -> int:
+        """Every state's visits (one for an unbounded one) and the usual margin, at most
+        MAX_MACHINE_STEPS: what a machine from a request can make the robot run and record."""
         bounded = [self.spec.visits_allowed(n, self.numbers) for n in self.spec.states]
-        return sum(b or 1 for b in bounded) + super().max_steps()
+        return min(MAX_MACHINE_STEPS, sum(b or 1 for b in bounded) + super().max_steps())
 
     # ------------------------------------------------------------- deciding
     def propose(self, report: BehaviorReport, exit_name: str | None = None) -> Proposal:
@@ -104,8 +111,8 @@ class SpecPolicy(Policy):
             if not t.takes(exit_name):
                 continue
             for g in t.when:
-                readings.setdefault(_label(g), self._read(g, report, numbers, poses))
-            if all(_holds(g, readings[_label(g)], numbers) for g in t.when):
+                readings.setdefault(g.label, self._read(g, report, numbers, poses))
+            if all(_holds(g, readings[g.label], numbers) for g in t.when):
                 target = self._resolve(t.to)
                 used_up = t.to if target != t.to else None
                 return Proposal(self.state, exit_name, i, target, t.autonomy, readings, t.why, used_up)
@@ -140,16 +147,25 @@ class SpecPolicy(Policy):
         if proposal.target in TERMINALS:
             return None
         numbers, _ = self._kept(report)
-        return dict(
-            command_params(self.spec.states[proposal.target].command, numbers.__getitem__).model_dump()
-        )
+        try:
+            params = command_params(self.spec.states[proposal.target].command, numbers.__getitem__)
+        except (ValidationError, KeyError, OverflowError):
+            return None  # it cannot be filled in: committing it ends the machine, saying why
+        return dict(params.model_dump())
 
     # ----------------------------------------------------------------- parts
-    def _enter(self, name: str, how: str, meaning: str = "") -> Step:
+    def _enter(self, name: str, how: str, meaning: str = "") -> Decision:
+        """Into state `name`: its command filled in; a value the robot's rules refuse (a
+        variable read from a report, out of range) ends the machine `failed`, saying which."""
+        state = self.spec.states[name]
+        try:
+            params = command_params(state.command, self.numbers.__getitem__)
+        except (ValidationError, KeyError, OverflowError) as err:
+            return Finish(
+                False, f"{how}: {name}'s command cannot be filled in: {_refusal(err, state.behavior)}"
+            )
         self.state = name
         self.visits[name] += 1
-        state = self.spec.states[name]
-        params = command_params(state.command, self.numbers.__getitem__)
         why = f"{state.why} ({how})" if how and state.why else (state.why or how)
         return Step(params, f"{meaning}: {why}" if meaning else why, name)
 
@@ -166,12 +182,11 @@ class SpecPolicy(Policy):
         """The variables once the current state's `set` has read `report` (new dicts)."""
         numbers, poses = dict(self.numbers), dict(self.poses)
         for var, keep in self.spec.states[self.state].set.items():
-            reading = keep.reading()
-            if reading is None:
+            if keep.is_pose:
                 poses[var] = report.final_port
             else:
-                value = self._read(reading, report, numbers, poses)
-                assert isinstance(value, float)
+                value = self._read(keep, report, numbers, poses)
+                assert isinstance(value, float)  # Keep has no text measure
                 numbers[var] = value
         return numbers, poses
 
@@ -208,15 +223,17 @@ class SpecPolicy(Policy):
                 return numbers[r.var]
 
 
-def _label(guard: Guard) -> str:
-    where = {
-        "travel": f"{guard.frame} {guard.axis}",
-        "wrench": guard.axis,
-        "visits": guard.state,
-        "var": guard.var,
-    }
-    inner = where.get(guard.measure)
-    return f"{guard.measure}({inner})" if inner else guard.measure
+def _refusal(err: Exception, behavior: str) -> str:
+    """What refused a command as it was filled in, naming the field."""
+    if isinstance(err, ValidationError):
+        return "; ".join(
+            f"{'.'.join(str(p) for p in e['loc'] if p != behavior) or 'command'}: "
+            f"{e['msg'].removeprefix('Value error, ')}"
+            for e in err.errors()
+        )
+    if isinstance(err, KeyError):
+        return f"variable {err.args[0]!r} not set yet"
+    return str(err)
 
 
 def _shown(value: float | str) -> str:

@@ -20,8 +20,10 @@ before it is read and of the right kind, every command is valid with its numbers
 An error names the state and the field: `states.approach.transitions[1].to: ...`.
 """
 
+import itertools
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
 from typing import Annotated, Any, Literal, Self
 
 from pydantic import Field, TypeAdapter, ValidationError, field_validator, model_validator
@@ -53,6 +55,9 @@ MAX_STATES = 64
 MAX_TRANSITIONS = 16
 MAX_GUARDS = 8
 MAX_VISITS = 200  # a tool exchange's 100 cycles visit its states 100 times
+# Steps a machine written as data may run in all, whatever its visits allow: a request's machine
+# cannot make the robot run (and record, and announce) more than this.
+MAX_MACHINE_STEPS = 400
 MAX_WHY = 300
 
 
@@ -100,6 +105,27 @@ class Reading(StrictModel):
             raise ValueError("var needs `var`")
         return self
 
+    def reads(self) -> set[str]:
+        """The variables it reads: the pose it is measured from, or the variable it is."""
+        if self.measure in ("travel", "tilt", "twist"):
+            return {self.since}
+        return {self.var} if self.measure == "var" and self.var else set()
+
+    @property
+    def label(self) -> str:
+        """How the record names the reading: `travel(tool z)`, `travel(base x since pressed)`,
+        `wrench(rz)`, `visits(press)`; two guards that read different things never share one."""
+        since = f" since {self.since}" if self.since != START_POSE else ""
+        inner = {
+            "travel": f"{self.frame} {self.axis}{since}",
+            "tilt": since.strip(),
+            "twist": since.strip(),
+            "wrench": self.axis,
+            "visits": self.state,
+            "var": self.var,
+        }.get(self.measure)
+        return f"{self.measure}({inner})" if inner else self.measure
+
 
 class Guard(Reading):
     op: Literal["<", "<=", ">", ">=", "starts_with"] = Field(description="how the reading compares")
@@ -119,23 +145,32 @@ class Guard(Reading):
             raise ValueError("a detail's text is at most 100 characters")
         return self
 
+    @property
+    def text(self) -> str:
+        value = self.value
+        shown = (
+            value.var if isinstance(value, Ref) else (repr(value) if isinstance(value, str) else f"{value:g}")
+        )
+        return f"{self.label} {self.op} {shown}"
 
-class Keep(StrictModel):
-    """A variable a state sets from its report: a number (a Reading) or the port's pose."""
 
-    measure: Literal[Measure, "port"] = Field(
-        description=f"port: the port's pose at the end; else {MEASURE_DOC}"
+KeepMeasure = Literal[
+    "travel", "tilt", "twist", "peak_force", "peak_torque", "wrench", "visits", "var", "port"
+]
+
+
+class Keep(Reading):
+    """A variable a state sets from its report: a number (any reading but the text `detail`) or
+    `port`, the port's pose at the end (for `since` and the like)."""
+
+    # Reading's measures, the text `detail` out, `port` in.
+    measure: KeepMeasure = Field(  # type: ignore[assignment]
+        description=f"port: the port's pose at the end; else (a number) {MEASURE_DOC}"
     )
-    axis: Literal["x", "y", "z", "rx", "ry", "rz"] = "z"
-    frame: Literal["tool", "base"] = "tool"
-    since: Name = START_POSE
-    state: Name | None = None
-    var: Name | None = None
 
-    def reading(self) -> Reading | None:
-        if self.measure == "port":
-            return None
-        return Reading.model_validate(self.model_dump(), strict=False)
+    @property
+    def is_pose(self) -> bool:
+        return self.measure == "port"
 
 
 class Transition(StrictModel):
@@ -180,6 +215,7 @@ class State(StrictModel):
         for key in ("sent_at", "max_age", "valid_until_sim_time"):
             if key in command:
                 raise ValueError(f"{key}: a step starts when the machine decides, it cannot expire")
+        _check_depth(command)
         return command
 
     @property
@@ -210,6 +246,21 @@ class Setting(StrictModel):
         return self
 
 
+MAX_COMMAND_DEPTH = 3  # a command's own values nest at most so deep: a list of Refs, a monitor's list
+
+
+def _check_depth(command: dict[str, Any]) -> None:
+    """Refuse nesting deeper than any command has (without recursing: a hostile body nests
+    thousands deep)."""
+    todo: list[tuple[Any, int]] = [(v, 1) for v in command.values()]
+    while todo:
+        value, depth = todo.pop()
+        if isinstance(value, dict | list):
+            if depth > MAX_COMMAND_DEPTH:
+                raise ValueError(f"nested deeper than any command's values ({MAX_COMMAND_DEPTH} levels)")
+            todo.extend((v, depth + 1) for v in (value.values() if isinstance(value, dict) else value))
+
+
 _COMMANDS: dict[str, TypeAdapter[Any]] = {
     "ptwl": TypeAdapter(PtwlParams),
     "rwe": TypeAdapter(RweParams),
@@ -218,7 +269,7 @@ _COMMANDS: dict[str, TypeAdapter[Any]] = {
 }
 
 
-def filled(command: Any, value_of: Any) -> Any:
+def filled(command: Any, value_of: Callable[[str], float]) -> Any:
     """`command` with every Ref (a {"var": ...} table) replaced by its number from `value_of`."""
     if isinstance(command, dict):
         if "var" in command:
@@ -230,7 +281,7 @@ def filled(command: Any, value_of: Any) -> Any:
     return command
 
 
-def command_params(command: dict[str, Any], value_of: Any) -> Any:
+def command_params(command: dict[str, Any], value_of: Callable[[str], float]) -> Any:
     """The behavior's validated parameters, Refs filled in (pydantic.ValidationError if not)."""
     return _COMMANDS[command["type"]].validate_python(filled(command, value_of))
 
@@ -271,19 +322,16 @@ class MachineSpec(StrictModel):
         if self.start not in names:
             yield f"start: no state {self.start!r} (states: {', '.join(sorted(names))})"
             return
-        clash = names & (set(TERMINALS) | {START_POSE} | set(self.settings))
-        for name in sorted(clash):
+        for name in sorted(names & (set(TERMINALS) | {START_POSE} | set(self.settings))):
             yield f"states.{name}: the name is taken (completed, failed, start and the settings' names)"
-        pose_vars = {START_POSE} | {
-            v for s in self.states.values() for v, keep in s.set.items() if keep.measure == "port"
-        }
-        number_vars = set(self.settings) | {
-            v for s in self.states.values() for v, keep in s.set.items() if keep.measure != "port"
-        }
+        kinds = self._variable_kinds()
+        for where, problem in kinds.problems:
+            yield f"{where}: {problem}"
         for name, state in self.states.items():
-            yield from self._state_problems(name, state, names, pose_vars, number_vars)
-        reachable = self._reachable()
-        for name in sorted(names - reachable):
+            yield from self._state_problems(name, state, names, kinds)
+        yield from self._read_before_set(kinds)
+        yield from self.command_problems(self.defaults(), extremes=True)
+        for name in sorted(names - self._reachable()):
             yield f"states.{name}: unreachable from {self.start!r}"
         loop = self._unbounded_loop()
         if loop:
@@ -292,18 +340,36 @@ class MachineSpec(StrictModel):
                 "give one of them max_visits so the machine cannot run forever"
             )
 
-    def _state_problems(
-        self, name: str, state: State, names: set[str], pose_vars: set[str], number_vars: set[str]
-    ) -> Iterator[str]:
+    def _variable_kinds(self) -> "_Kinds":
+        """Every variable's kind (pose or number), and the names no variable may take: a
+        setting's (a run's overrides would not be what a state sets), `start`, or one name for
+        both a pose and a number."""
+        kinds = _Kinds({START_POSE: "pose", **{n: "number" for n in self.settings}})
+        for name, state in self.states.items():
+            for var, keep in state.set.items():
+                kind = "pose" if keep.is_pose else "number"
+                where = f"states.{name}.set.{var}"
+                if var == START_POSE or var in self.settings:
+                    kinds.problems.append(
+                        (
+                            where,
+                            f"{var!r} is taken ({'the start pose' if var == START_POSE else 'a setting'})",
+                        )
+                    )
+                elif kinds.of.setdefault(var, kind) != kind:
+                    kinds.problems.append(
+                        (where, f"{var!r} is a {kinds.of[var]} elsewhere; a name keeps one kind")
+                    )
+        return kinds
+
+    def _state_problems(self, name: str, state: State, names: set[str], kinds: "_Kinds") -> Iterator[str]:
         here = f"states.{name}"
         for i, t in enumerate(state.transitions):
             if t.to not in names and t.to not in TERMINALS:
                 yield f"{here}.transitions[{i}].to: no state {t.to!r} (nor completed, failed)"
             for j, guard in enumerate(t.when):
-                yield from self._reading_problems(
-                    f"{here}.transitions[{i}].when[{j}]", guard, names, pose_vars, number_vars
-                )
-                if isinstance(guard.value, Ref) and guard.value.var not in number_vars:
+                yield from self._reading_problems(f"{here}.transitions[{i}].when[{j}]", guard, names, kinds)
+                if isinstance(guard.value, Ref) and kinds.of.get(guard.value.var) != "number":
                     yield (
                         f"{here}.transitions[{i}].when[{j}].value: "
                         f"no number variable or setting {guard.value.var!r}"
@@ -321,39 +387,87 @@ class MachineSpec(StrictModel):
         if state.exhausted not in names and state.exhausted not in TERMINALS:
             yield f"{here}.exhausted: no state {state.exhausted!r}"
         for var, keep in state.set.items():
-            reading = keep.reading()
-            if reading is not None:
-                yield from self._reading_problems(f"{here}.set.{var}", reading, names, pose_vars, number_vars)
+            if not keep.is_pose:
+                yield from self._reading_problems(f"{here}.set.{var}", keep, names, kinds)
         for var in refs_in(state.command):
-            if var not in number_vars:
+            if kinds.of.get(var) != "number":
                 yield f"{here}.command: no number variable or setting {var!r}"
         if isinstance(state.max_visits, Ref) and state.max_visits.var not in self.settings:
             yield f"{here}.max_visits: a Ref here must name a setting, got {state.max_visits.var!r}"
-        yield from self._command_problems(here, state)
         for visits in self._visit_bounds(state):
             if not 0 <= visits <= MAX_VISITS:
                 yield f"{here}.max_visits: must be in [0, {MAX_VISITS}], got {visits:g}"
 
-    def _reading_problems(
-        self, where: str, reading: Reading, names: set[str], pose_vars: set[str], number_vars: set[str]
-    ) -> Iterator[str]:
-        if reading.measure in ("travel", "tilt", "twist") and reading.since not in pose_vars:
+    @staticmethod
+    def _reading_problems(where: str, reading: Reading, names: set[str], kinds: "_Kinds") -> Iterator[str]:
+        if reading.measure in ("travel", "tilt", "twist") and kinds.of.get(reading.since) != "pose":
             yield f"{where}.since: no pose variable {reading.since!r} (start, or a `set` with measure port)"
         if reading.measure == "visits" and reading.state not in names:
             yield f"{where}.state: no state {reading.state!r}"
-        if reading.measure == "var" and reading.var not in number_vars:
+        if reading.measure == "var" and kinds.of.get(reading.var or "") != "number":
             yield f"{where}.var: no number variable or setting {reading.var!r}"
 
-    def _command_problems(self, here: str, state: State) -> Iterator[str]:
-        """The command, its Refs filled with the settings' values (report variables as 0)."""
-        try:
-            command_params(
-                state.command, lambda var: self.settings[var].value if var in self.settings else 0.0
-            )
-        except ValidationError as err:
-            for e in err.errors():
-                field = ".".join(str(p) for p in e["loc"] if p != state.behavior) or "command"
-                yield f"{here}.command.{field}: {e['msg'].removeprefix('Value error, ')}"
+    def _read_before_set(self, kinds: "_Kinds") -> Iterator[str]:
+        """A variable read where some way there has not set it: entering a state fills its
+        command (what has been set before it); its guards and its own `set` read after its
+        own `set`. Known on entry: what every way into the state has set (the settings and
+        `start` from the start)."""
+        given = {START_POSE, *self.settings}
+        everything = set(kinds.of)
+        known = {name: set(everything) for name in self.states}  # shrinks to the fixpoint
+        known[self.start] = set(given)
+        changed = True
+        while changed:
+            changed = False
+            for name, state in self.states.items():
+                out = known[name] | set(state.set)
+                for nxt in self.successors(name):
+                    narrowed = known[nxt] & out if nxt != self.start else known[nxt] & given
+                    if narrowed != known[nxt]:
+                        known[nxt], changed = narrowed, True
+        for name, state in self.states.items():
+            here = f"states.{name}"
+            for var in sorted(set(refs_in(state.command)) & everything - known[name]):
+                yield f"{here}.command: reads {var!r} before every way here sets it"
+            after = set(known[name])
+            for var, keep in state.set.items():  # in order: each may read those before it
+                for read in sorted(keep.reads() & everything - after):
+                    yield f"{here}.set.{var}: reads {read!r} before every way here sets it"
+                after.add(var)
+            for i, t in enumerate(state.transitions):
+                for j, guard in enumerate(t.when):
+                    guarded = guard.reads() | ({guard.value.var} if isinstance(guard.value, Ref) else set())
+                    for var in sorted(guarded & everything - after):
+                        yield f"{here}.transitions[{i}].when[{j}]: reads {var!r} before every way sets it"
+
+    def command_problems(self, settings: dict[str, float], extremes: bool = False) -> Iterator[str]:
+        """Each command filled with `settings` (and, with `extremes`, at each combination of the
+        min and max of those it reads: what any run's overrides can make of it). A field that
+        reads a variable a state sets is checked as it is filled in, at run time (a bad value
+        then ends the machine `failed`, naming the state and field); its other fields here."""
+        for name, state in self.states.items():
+            read = set(refs_in(state.command))
+            from_reports = read - set(self.settings)
+            late = {key for key, value in state.command.items() if set(refs_in(value)) & from_reports}
+            corners: list[dict[str, float]] = [{}]
+            if extremes:
+                ends = [
+                    (self.settings[v].min, self.settings[v].max) for v in sorted(read & set(self.settings))
+                ]
+                names = sorted(read & set(self.settings))
+                corners += [
+                    dict(zip(names, c, strict=True)) for c in itertools.islice(itertools.product(*ends), 16)
+                ]
+            for corner in corners:
+                values = {**settings, **corner, **dict.fromkeys(from_reports, 0.0)}
+                said = [
+                    f"states.{name}.command.{at}: {message}" + _at_settings(corner)
+                    for at, message in _command_errors(state, values)
+                    if at.split(".")[0] not in late and not (from_reports and at == "command")
+                ]
+                yield from said
+                if said:
+                    break
 
     def _visit_bounds(self, state: State) -> list[float]:
         """max_visits at the settings' least and greatest (a Ref to a setting may be overridden)."""
@@ -411,6 +525,9 @@ class MachineSpec(StrictModel):
         return []
 
     # ------------------------------------------------------------------ for the engine
+    def defaults(self) -> dict[str, float]:
+        return {name: setting.value for name, setting in self.settings.items()}
+
     def visits_allowed(self, name: str, settings: dict[str, float]) -> int | None:
         bound = self.states[name].max_visits
         if bound is None or isinstance(bound, int):
@@ -424,18 +541,35 @@ class MachineSpec(StrictModel):
             for t in state.transitions:
                 label = ",".join(t.on) if t.on else "any"
                 if t.when:
-                    label += " if " + " and ".join(_guard_text(g) for g in t.when)
+                    label += " if " + " and ".join(g.text for g in t.when)
                 found.append((name, t.to, label, t.autonomy))
             if state.max_visits is not None:
                 found.append((name, state.exhausted, "visits used up", "off"))
         return found
 
 
-def _guard_text(guard: Guard) -> str:
-    value = guard.value
-    shown = (
-        f"{value.var}"
-        if isinstance(value, Ref)
-        else (repr(value) if isinstance(value, str) else f"{value:g}")
-    )
-    return f"{guard.measure} {guard.op} {shown}"
+def _command_errors(state: "State", values: dict[str, float]) -> list[tuple[str, str]]:
+    """(field, message) for each error of the state's command filled with `values`."""
+    try:
+        command_params(state.command, values.__getitem__)
+    except ValidationError as err:
+        return [
+            (
+                ".".join(str(p) for p in e["loc"] if p != state.behavior) or "command",
+                e["msg"].removeprefix("Value error, "),
+            )
+            for e in err.errors()
+        ]
+    return []
+
+
+def _at_settings(corner: dict[str, float]) -> str:
+    return " (with " + ", ".join(f"{k} = {v:g}" for k, v in corner.items()) + ")" if corner else ""
+
+
+@dataclass
+class _Kinds:
+    """Variables by kind ("pose" or "number"), and where a name was misused."""
+
+    of: dict[str, str]
+    problems: list[tuple[str, str]] = field(default_factory=list)

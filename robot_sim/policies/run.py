@@ -83,9 +83,10 @@ class Machine:
         self.current = decision
         return decision
 
-    def stop(self, why: str) -> None:
-        """Ended between steps (an operator's stop at a decision): `aborted`."""
-        self._end(Finish(False, why), ExitCondition.ABORTED)
+    def stop(self, why: str, exit_condition: ExitCondition = ExitCondition.ABORTED) -> None:
+        """Ended between steps: an operator's stop at a decision or STOP (`aborted`), or the
+        physics faulting while a decision waited (`fault`)."""
+        self._end(Finish(False, why), exit_condition)
 
     def _end(self, finish: Finish, exit_condition: ExitCondition) -> None:
         self.finish, self.exit = finish, exit_condition

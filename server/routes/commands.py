@@ -61,8 +61,9 @@ async def submit_command(
         """(simulation thread) Checked against the scene, its frames and the gains as they are,
         and queued in the same step: a frame cannot vanish between its check and the queue."""
         sim = runner.sim
-        if isinstance(params, StateMachineParams) and params.task and sim.scene.name != params.task:
-            message = f"the {params.task} state machine needs scene {params.task}; {sim.scene.name} is loaded"
+        needs = params.scene() if isinstance(params, StateMachineParams) else None
+        if needs is not None and sim.scene.name != needs:
+            message = f"the {needs} state machine needs scene {needs}; {sim.scene.name} is loaded"
             raise RequestValidationError([{"loc": ("body", "task"), "msg": message, "type": "value_error"}])
         if isinstance(params, GripperParams) and sim.scene.gripper is None:
             message = f"the {sim.scene.name} scene's tool has no gripper"
@@ -111,6 +112,9 @@ async def decide(command_id: int, decision: DecisionRequest, book: Book, runner:
     this command's `machine.pending`): confirm the proposed transition, decide by another
     outcome, force a state, or stop the machine. `decision` names which one, so an answer that
     arrives after the robot has moved on is refused (409), never applied to a later one."""
+
+    if book.get(command_id) is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"no command {command_id}")
 
     def answer() -> CommandStatus:
         runner.decide(command_id, decision)

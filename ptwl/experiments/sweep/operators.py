@@ -240,9 +240,10 @@ class OnboardOperator(Operator):
 
     def on_wake(self, now: float) -> list[Request]:
         decision = self._decision
-        if decision is not None and decision[0] <= now and self.pending is not None:
+        if decision is not None and decision[0] <= now:
             self._decision = None
-            return [self._decide(decision[1])]
+            if self.pending is not None:  # else the machine ended meanwhile: nothing to answer
+                return [self._decide(decision[1])]
         return super().on_wake(now)
 
     def _asked(self, now: float, number: int) -> list[Request]:

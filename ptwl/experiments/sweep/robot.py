@@ -230,7 +230,10 @@ class VirtualRobot:
         ctl = sim.controller
         if counting:  # the compiled loop adds each tick's |f| and |tau| to the sums (tick.py)
             ctl.set_norm_sums(figures.force_sum, figures.torque_sum)
+        faults = sim.fault_count
         report, ran = sim.advance(1 if self._outbox else UNBOUNDED_TICKS, until_s)
+        if sim.fault_count != faults:
+            self.commands.scene_reloaded()  # a machine waiting for a decision ends `fault`
         if counting:  # from the controller they were added on: a fault has since made a new one
             figures.force_sum, figures.torque_sum = ctl.norm_sums()
             figures.ticks += ran
