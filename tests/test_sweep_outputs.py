@@ -17,7 +17,7 @@ from ptwl.cli import main
 from ptwl.experiments.sweep import sweep as sweep_module
 from ptwl.experiments.sweep.backends import BackendMissing
 from ptwl.experiments.sweep.spec import SweepSettings
-from ptwl.experiments.sweep.summary import Fit, break_even_s, fits
+from ptwl.experiments.sweep.summary import Fit, break_even_s, fits, sweet_spots
 from ptwl.experiments.sweep.sweep import OutDirectoryError, run_sweep
 from ptwl.experiments.sweep.table import NAMES, read_rows
 from ptwl.recording.reader import read
@@ -303,3 +303,30 @@ def test_autonomy_levels_full_is_flat_and_confirming_every_step_grows_one_rtt_pe
             report,
             re.M,
         ), report
+
+
+def test_the_sweet_spot_is_the_fastest_level_at_least_as_successful_as_full_autonomy() -> None:
+    def rows(level: str, rtt: float, times: list[float], successes: list[bool]) -> list[dict[str, object]]:
+        return [
+            {
+                "operator": "onboard",
+                "autonomy": level,
+                "rtt_s": rtt,
+                "task_time_s": t,
+                "success": ok,
+                "decisions_waited": 1,
+            }
+            for t, ok in zip(times, successes, strict=True)
+        ]
+
+    table = [
+        *rows("off", 0.0, [10.0, 11.0], [False, True]),  # fastest, but half fail: not it
+        *rows("high", 0.0, [15.0, 16.0], [True, True]),  # as successful as full, faster: the spot
+        *rows("full", 0.0, [20.0, 21.0], [True, True]),
+        *rows("high", 5.0, [40.0, 41.0], [True, True]),
+        *rows("full", 5.0, [20.0, 21.0], [True, True]),
+    ]
+    spots = sweet_spots(table)
+    assert [(s.rtt_s, s.reference, s.best) for s in spots] == [(0.0, "full", "high"), (5.0, "full", "full")]
+    assert [x.level for x in spots[0].levels] == ["off", "high", "full"]
+    assert spots[0].levels[0].success_rate == 0.5 and spots[0].levels[1].task_time_median_s == 15.5
