@@ -57,7 +57,8 @@ class Accepted:
 
 @dataclass(frozen=True)
 class Refused:
-    """A decision the robot would not take (409: another one is pending, or none)."""
+    """A decision the robot would not take (the API's 409: another one is pending, or none; or
+    422: a state or outcome the machine has not)."""
 
     tag: str
     why: str
