@@ -16,7 +16,7 @@ from robot_sim.errors import ConfigError
 from robot_sim.machines.command import DecisionRequest, StateMachineParams
 from robot_sim.machines.engine import policy_class
 from robot_sim.machines.library import builtin_machines, read_machine
-from robot_sim.machines.spec import AUTONOMY_LEVELS, MAX_MACHINE_STEPS, MachineSpec, waits
+from robot_sim.machines.spec import AUTONOMY_LEVELS, MAX_MACHINE_STEPS, MAX_VISITS, MachineSpec, waits
 from robot_sim.policies import POLICIES, Finish, Step, run_onboard
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -419,3 +419,52 @@ def test_a_machine_runs_at_most_its_step_bound() -> None:
     }
     spec = MachineSpec.model_validate({"name": "ring", "start": "s0", "states": states})
     assert policy_class(spec)().max_steps() == MAX_MACHINE_STEPS == 400
+
+
+def test_a_variable_set_on_one_way_in_but_not_the_other_is_refused() -> None:
+    machine = base()
+    machine["states"]["press"]["transitions"] = [
+        {"on": ["wrench_breach"], "to": "relieve"},
+        {"on": ["timeout"], "to": "side"},  # this way into relieve does not set `pressed_at`
+        {"to": "failed"},
+    ]
+    machine["states"]["press"]["set"] = {}
+    machine["states"]["side"] = {
+        "command": {"type": "rwe"},
+        "transitions": [{"to": "relieve"}],
+    }
+    machine["states"]["press"]["transitions"][0]["to"] = "marked"
+    machine["states"]["marked"] = {
+        "command": {"type": "rwe"},
+        "set": {"pressed_at": {"measure": "port"}},
+        "transitions": [{"to": "relieve"}],
+    }
+    machine["states"]["relieve"]["transitions"] = [
+        {"when": [{"measure": "travel", "since": "pressed_at", "op": ">", "value": 0.0}], "to": "completed"},
+        {"to": "failed"},
+    ]
+    said = refusal(machine)
+    assert "states.relieve.transitions[0].when[0]: reads 'pressed_at' before every way sets it" in said
+    machine["states"]["side"]["set"] = {"pressed_at": {"measure": "port"}}  # both ways set it now
+    MachineSpec.model_validate(machine)
+
+
+def test_max_visits_is_bounded() -> None:
+    machine = base()
+    machine["states"]["press"]["max_visits"] = MAX_VISITS + 1
+    assert f"states.press.max_visits: must be in [0, {MAX_VISITS}], got {MAX_VISITS + 1}" in refusal(machine)
+    machine["states"]["press"]["max_visits"] = MAX_VISITS
+    MachineSpec.model_validate(machine)
+
+
+@pytest.mark.parametrize(("op", "holds"), [("<", False), ("<=", True), (">", False), (">=", True)])
+def test_a_guard_at_its_bound_holds_as_its_operator_says(op: str, holds: bool) -> None:
+    machine = base()
+    machine["states"]["press"]["transitions"] = [
+        {"when": [{"measure": "peak_force", "op": op, "value": 12.0}], "to": "relieve"},  # the report's 12 N
+        {"to": "failed"},
+    ]
+    policy = policy_class(MachineSpec.model_validate(machine))()
+    policy.first(HOME)
+    decided = policy.next(report(ExitCondition.TIMEOUT, HOME))
+    assert isinstance(decided, Step) == holds, decided
