@@ -228,3 +228,16 @@ def test_a_physics_fault_while_a_decision_waits_ends_the_machine_fault() -> None
     assert robot.book.running is None and robot.sim.fault_count == 1
     reply = robot.handle(Decide("op-1", DecisionRequest(decision=1, choice="confirm")))
     assert isinstance(reply, Refused)  # nothing waits any more
+
+
+def test_stop_ends_a_machine_between_steps_even_with_nothing_pending() -> None:
+    """Whatever left a machine between steps with no decision pending (a bug elsewhere), STOP
+    still ends it and frees the queue: nothing can hold the robot's queue past a STOP."""
+    robot, _ = started("low")
+    run = robot.commands._executor.run  # the state a failed commit once left (an outside review)
+    assert run is not None
+    run.pending = None
+    robot.stop()
+    done = robot.tick_until(robot.sim.time + 1.0)
+    assert isinstance(done, Done) and done.outcome.exit == "aborted"
+    assert "stopped between steps" in done.outcome.detail and robot.book.running is None

@@ -468,3 +468,27 @@ def test_a_guard_at_its_bound_holds_as_its_operator_says(op: str, holds: bool) -
     policy.first(HOME)
     decided = policy.next(report(ExitCondition.TIMEOUT, HOME))
     assert isinstance(decided, Step) == holds, decided
+
+
+def test_overrides_that_make_a_command_invalid_are_refused_when_sent() -> None:
+    """A command reading more settings than the file's check tries every corner of (16): the
+    run's own overrides are checked when sent."""
+    machine = base()
+    machine["settings"] = {
+        "a_far": {"value": 0.5, "min": 0.0, "max": 2.0},  # sorted first: its max is past the 16 corners tried
+        **{f"r{i}": {"value": 0.0, "min": 0.0, "max": 0.01} for i in range(4)},
+    }
+    machine["states"]["press"]["command"] = {
+        "type": "ptwl",
+        "translation": [{"var": "a_far"}, 0.0, 0.0],
+        "rotation": [{"var": "r0"}, {"var": "r1"}, {"var": "r2"}],
+        "duration": 1.0,
+        "position_tolerance": {"var": "r3", "offset": 0.001},
+    }
+    spec = MachineSpec.model_validate(machine)
+    assert StateMachineParams(machine=spec, overrides={"a_far": 0.9}).overrides == {"a_far": 0.9}
+    with pytest.raises(
+        ValidationError,
+        match=r"with these overrides, press: states\.press\.command\.translation: magnitude must be <= 1 m, got 1\.5",
+    ):
+        StateMachineParams(machine=spec, overrides={"a_far": 1.5})
