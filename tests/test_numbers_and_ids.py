@@ -22,13 +22,13 @@ from ptwl.cli import main as ptwl_main
 from ptwl.launcher import ServiceProcess, running_server
 from robot_sim.command_book import FutureSentAtError
 from robot_sim.command_request import field_errors
+from robot_sim.machines.command import StateMachineParams
 from robot_sim.params import (
     DitherParams,
     GripperParams,
     MonitorSpec,
     PtwlParams,
     RweParams,
-    StateMachineParams,
 )
 from robot_sim.task_frames import unit_quaternion
 from server.client import RobotClient
