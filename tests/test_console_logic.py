@@ -28,6 +28,7 @@ from robot_sim.task_frames import TaskFrame, TaskFrames, unit_quaternion
 from server.client import RobotClient
 from server.models import GeometryModel
 from tests.helpers import PREVIEW_WALL_BOUND_S, threads_started_since
+from tests.test_autonomy import press_machine
 from web.app import ConsoleApp
 from web.arm_bodies import FIXTURE_OPACITY
 from web.defaults import load_defaults
@@ -739,3 +740,43 @@ def test_a_desk_whose_browser_has_gone_is_forgotten_and_the_others_are_still_tol
         desks = console.desks.all()
     assert told == ["free_space"]
     assert gone not in desks and staying in desks
+
+
+def test_the_machines_tab_shows_a_pending_decision_previews_its_ptwl_and_only_the_holder_answers(
+    console: ConsoleApp, server: ServiceProcess
+) -> None:
+    """The desk's wiring of issue 31's tab, without a browser: telemetry's pending decision
+    reaches the tab; its next behavior (a PTWL) previews on the twin; a watcher's buttons are
+    off and its answer is not sent; the holder's confirm runs the machine on."""
+    machine = press_machine().model_dump(exclude_none=True)
+    machine["states"]["relieve"]["command"] = {
+        "type": "ptwl",
+        "translation": [0.0, 0.0, -0.01],
+        "duration": 1.0,
+    }
+    wait_for_state(console)
+    # The watcher's desk first: stub desks share the server's scene, so the newest desk's 3D marks
+    # are the live ones (a real browser has its own scene).
+    with RobotClient(server.url) as robot, viser_client(console) as watcher, viser_client(console) as holder:
+        robot.reset_scene("surface")
+        console.seat.take(holder.client_id)
+        accepted = robot.command("state_machine", machine=machine, autonomy="high")
+        deadline = time.monotonic() + 20.0
+        while holder.panel.machines.decision_body("confirm") is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        tab = holder.panel.machines
+        assert tab.decision_body("confirm") == (accepted.id, {"decision": 1, "choice": "confirm"})
+        assert not tab.confirm.disabled and watcher.panel.machines.confirm.disabled
+        assert not tab.preview_next.disabled  # the next behavior is a PTWL
+        step = tab.next_step()
+        assert step is not None and step["translation"] == [0.0, 0.0, -0.01] and step["duration"] == 1.0
+        holder.machine_preview.now(step)
+        result, _ = holder.machine_preview._shown
+        assert result is not None and result.exit == "goal_reached"
+        # Watching: its buttons are off, and the console refuses its answer anyway; nothing is sent.
+        console.commanding.decide(watcher, accepted.id, {"decision": 1, "choice": "confirm"})
+        assert watcher.client.notes == ["Not decided: you are watching"]  # type: ignore[attr-defined]
+        assert robot.get(accepted.id).status == "running"
+        holder._decide("confirm")
+        assert robot.wait(accepted.id, timeout=20.0).exit == "completed"
+        robot.reset_scene("free_space")
