@@ -35,9 +35,12 @@ class CommandRunner:
         if self.sim.behavior is not None:
             return None
         sim = self.sim
-        return self.book.start_next(
+        started = self.book.start_next(
             lambda record: self._executor.start(record.params), sim.time, sim.frames.missing_reason
         )
+        if started is not None and isinstance(started.params, StateMachineParams):
+            self._note_machine(started)  # its view from the first step (telemetry reads it)
+        return started
 
     def behavior_ended(self, report: BehaviorReport) -> tuple[CommandRecord | None, Ended]:
         """A behavior ended: the running command's end, or its state machine's step (announced
@@ -82,12 +85,12 @@ class CommandRunner:
             self.book.finish(ended.command)
 
     def machine_view(self) -> dict[str, object] | None:
-        """The running machine's state, pending decision and decisions (telemetry's `machine`)."""
-        run = self._executor.run
+        """The running machine's state, pending decision and decisions (telemetry's `machine`):
+        its record's view, made once per change (a step's end, a decision), not per state sent."""
         running = self.book.running
-        if run is None or running is None:
+        if running is None or running.machine is None or self._executor.run is None:
             return None
-        return {"command": running.id, **run.view()}
+        return {"command": running.id, **running.machine}
 
     def _note_machine(self, record: CommandRecord) -> None:
         run = self._executor.run

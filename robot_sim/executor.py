@@ -121,10 +121,6 @@ class CommandExecutor:
         self.ended_view: dict[str, Any] | None = None  # the last machine's view as it ended
         self._behavior: BehaviorParams | None = None  # the running behavior command's, if any
 
-    @property
-    def machine(self) -> Machine | None:
-        return self.run.machine if self.run is not None else None
-
     def start(self, params: CommandParams) -> Pose | None:
         """Start a command now; the absolute goal it resolved (a PTWL's), if it has one."""
         if isinstance(params, StateMachineParams):

@@ -26,6 +26,7 @@ from robot_sim.machines.spec import (
     Reading,
     Ref,
     command_params,
+    command_refusals,
 )
 from robot_sim.params import AXIS_NAMES, StrictModel
 from robot_sim.policies.base import Decision, Finish, Policy, Step
@@ -226,11 +227,7 @@ class SpecPolicy(Policy):
 def _refusal(err: Exception, behavior: str) -> str:
     """What refused a command as it was filled in, naming the field."""
     if isinstance(err, ValidationError):
-        return "; ".join(
-            f"{'.'.join(str(p) for p in e['loc'] if p != behavior) or 'command'}: "
-            f"{e['msg'].removeprefix('Value error, ')}"
-            for e in err.errors()
-        )
+        return "; ".join(f"{field}: {message}" for field, message in command_refusals(err, behavior))
     if isinstance(err, KeyError):
         return f"variable {err.args[0]!r} not set yet"
     return str(err)

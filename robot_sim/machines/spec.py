@@ -548,18 +548,23 @@ class MachineSpec(StrictModel):
         return found
 
 
+def command_refusals(err: ValidationError, behavior: str) -> list[tuple[str, str]]:
+    """(field, message) for each error of a command of `behavior` (its tag left out of the field)."""
+    return [
+        (
+            ".".join(str(p) for p in e["loc"] if p != behavior) or "command",
+            e["msg"].removeprefix("Value error, "),
+        )
+        for e in err.errors()
+    ]
+
+
 def _command_errors(state: "State", values: dict[str, float]) -> list[tuple[str, str]]:
     """(field, message) for each error of the state's command filled with `values`."""
     try:
         command_params(state.command, values.__getitem__)
     except ValidationError as err:
-        return [
-            (
-                ".".join(str(p) for p in e["loc"] if p != state.behavior) or "command",
-                e["msg"].removeprefix("Value error, "),
-            )
-            for e in err.errors()
-        ]
+        return command_refusals(err, state.behavior)
     return []
 
 
