@@ -5,11 +5,12 @@ versioned; a message keeps the delay it was given on arrival, and its record nam
 """
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 from typing import Any
 
-from latency.delay_line import DIRECTIONS, DelayLine, DirectionModel, Dropped, Entry
+from latency.delay_line import DIRECTIONS, DelayLine, DirectionModel, Dropped, Entry, Parked
+from latency.outlook import link_outlook
 from latency.profile import LinkProfile
 from latency.record import Recorder
 from latency.stats import DirectionStats
@@ -31,9 +32,9 @@ class Link:
         recorder: Recorder | None = None,
     ) -> None:
         self.clock = clock
-        self.lines = {d: DelayLine(d) for d in DIRECTIONS}
         self.stats = {d: DirectionStats() for d in DIRECTIONS}
         self.recorder = recorder
+        self.lines = {d: DelayLine(d, self._dropped) for d in DIRECTIONS}
         self._active = self._activate(profile, 1)
 
     # ------------------------------------------------------------------ profile
@@ -59,7 +60,17 @@ class Link:
         active = self._active
         return {"version": active.version, **active.profile.model_dump()}
 
+    def outlook(self, now_unix: float) -> dict[str, Any]:
+        """The link now and next, per direction (latency/outlook.py), with Unix times."""
+        active = self._active
+        return link_outlook(active.models, self.lines, self.clock(), now_unix)
+
     # ----------------------------------------------------------------- messages
+    def _dropped(self, drop: Dropped) -> None:
+        self.stats[drop.direction].on_drop(drop)
+        if self.recorder is not None:
+            self.recorder.dropped(drop)
+
     def admit(
         self,
         direction: str,
@@ -67,15 +78,15 @@ class Link:
         kind: str,
         deliver: Callable[[], object] | None = None,
         lossy: bool = True,
-    ) -> Entry | Dropped:
+        replace_key: Hashable | None = None,
+    ) -> Entry | Dropped | Parked:
+        """A message enters the link now; `replace_key`: it is a state, replaced by a newer one
+        of the same key while it waits for the wire (latency/delay_line.py)."""
         active = self._active
-        outcome = self.lines[direction].admit(
-            self.clock(), active.models[direction], size, kind, deliver, lossy
+        self.stats[direction].on_arrival()
+        return self.lines[direction].admit(
+            self.clock(), active.models[direction], size, kind, deliver, lossy, replace_key
         )
-        self.stats[direction].on_admit(outcome)
-        if isinstance(outcome, Dropped) and self.recorder is not None:
-            self.recorder.dropped(outcome)
-        return outcome
 
     def release_due(self, direction: str) -> list[Entry]:
         """Pop what is due now, account for it, and hand each entry to its deliver callback."""

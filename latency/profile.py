@@ -5,18 +5,13 @@ the round trip is their sum. Blackout windows are timed from the moment the prof
 effect (a PUT, or the proxy's start), optionally repeating every `period`.
 """
 
+import math
 from typing import Annotated, Any, Literal, Self
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
 
-MAX_DELAY_S = 600.0
-
-
-class StrictModel(BaseModel):
-    model_config = ConfigDict(allow_inf_nan=False, extra="forbid", strict=True)
-
-
-Seconds = Annotated[float, Field(ge=0.0, le=MAX_DELAY_S)]
+from latency.fields import MAX_DELAY_S, Seconds, StrictModel
+from latency.schedule import Rate, Schedule
 Probability = Annotated[float, Field(ge=0.0, le=1.0)]
 Seed = Annotated[int, Field(ge=0, le=2**32 - 1)]
 MAX_DESCRIPTION_CHARS = 2000
@@ -65,6 +60,14 @@ class Blackout(StrictModel):
             )
         return self
 
+    def next_start(self, t: float) -> float | None:
+        """The first window start after time `t` [s since activation] (None: no more)."""
+        if t < self.start:
+            return self.start
+        if self.period is None:
+            return None
+        return self.start + (math.floor((t - self.start) / self.period) + 1) * self.period
+
     def end_if_inside(self, t: float) -> float | None:
         """If time `t` [s since activation] falls in a window, that window's end; else None."""
         if t < self.start:
@@ -85,6 +88,13 @@ class LinkProfile(StrictModel):
     jitter: Jitter = Field(default_factory=Jitter)
     loss: Loss = Field(default_factory=Loss)
     blackouts: list[Blackout] = Field(default_factory=list, max_length=100)
+    schedule: Schedule | None = Field(
+        None, description="contact windows, delay over time and per-window rates (null: always in contact)"
+    )
+    uplink_bytes_per_s: Rate | None = Field(
+        None, description="[bytes/s] the uplink's rate: a message takes size / rate on the wire (null: unlimited)"
+    )
+    downlink_bytes_per_s: Rate | None = Field(None, description="[bytes/s] the downlink's rate (null: unlimited)")
     reorder: bool = Field(
         False,
         description="let jitter reorder messages (off: release = max(arrival + delay, previous release))",

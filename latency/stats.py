@@ -3,7 +3,7 @@
 from collections import Counter, deque
 from typing import Any
 
-from latency.delay_line import DelayLine, Dropped, Entry
+from latency.delay_line import DROP_REASONS, DelayLine, Dropped, Entry
 
 WINDOW = 20_000  # recent releases kept for percentiles
 
@@ -33,10 +33,11 @@ class DirectionStats:
         self._configured: deque[float] = deque(maxlen=WINDOW)
         self._holding_error: deque[float] = deque(maxlen=WINDOW)
 
-    def on_admit(self, outcome: Entry | Dropped) -> None:
+    def on_arrival(self) -> None:
         self.arrived += 1
-        if isinstance(outcome, Dropped):
-            self.dropped[outcome.reason] += 1
+
+    def on_drop(self, drop: Dropped) -> None:
+        self.dropped[drop.reason] += 1
 
     def on_release(self, entry: Entry, now: float, reorder_allowed: bool) -> None:
         self.released += 1
@@ -53,8 +54,8 @@ class DirectionStats:
         return {
             "arrived": self.arrived,
             "released": self.released,
-            "dropped": {"loss": 0, "blackout": 0, "overflow": 0, **self.dropped},
-            "held_now": {"messages": line.held_messages, "bytes": line.held_bytes},
+            "dropped": {reason: self.dropped[reason] for reason in DROP_REASONS},
+            "held_now": {"messages": line.held_messages, "bytes": line.held_bytes, "parked_states": line.parked},
             "early_releases": self.early_releases,
             "reorderings": self.reorderings,
             "realized_delay_s": _percentiles(self._realized),

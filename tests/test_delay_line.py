@@ -151,9 +151,9 @@ def test_caps_bound_memory_with_drop_newest() -> None:
     assert len(kept) == 40  # 4096 bytes / 100 bytes, before the message cap
     stats = sim.link.stats_view()["downlink"]
     assert stats["dropped"]["overflow"] == 60
-    assert stats["held_now"] == {"messages": 40, "bytes": 4000}
+    assert stats["held_now"] == {"messages": 40, "bytes": 4000, "parked_states": 0}
     sim.advance_to(20.0)
-    assert sim.link.stats_view()["downlink"]["held_now"] == {"messages": 0, "bytes": 0}
+    assert sim.link.stats_view()["downlink"]["held_now"] == {"messages": 0, "bytes": 0, "parked_states": 0}
 
 
 @pytest.mark.parametrize(
