@@ -2,8 +2,9 @@
 
 import asyncio
 import contextlib
+from collections.abc import Hashable
 
-from latency.delay_line import DIRECTIONS, Dropped, Entry
+from latency.delay_line import DIRECTIONS, Dropped, Entry, Parked
 from latency.link import Link
 from latency.profile import LinkProfile
 
@@ -65,15 +66,19 @@ class SimulatedLink:
     profile (and seeds) makes the same decisions and schedules the same release times.
     """
 
-    def __init__(self, profile: LinkProfile, start: float = 0.0) -> None:
+    def __init__(self, profile: LinkProfile, start: float = 0.0, plan_offset_s: float = 0.0) -> None:
+        """`plan_offset_s`: how far into its schedule (and blackouts) the link is at `start` (a
+        sweep's trials start at seeded points of a pass)."""
         self.clock = ManualClock(start)
-        self.link = Link(profile, clock=self.clock)
+        self.link = Link(profile, clock=self.clock, activated_at=start - plan_offset_s)
         self.released: list[tuple[float, Entry]] = []
 
-    def send(self, t: float, direction: str, size: int = 100, kind: str = "ws") -> Entry | Dropped:
+    def send(
+        self, t: float, direction: str, size: int = 100, kind: str = "ws", replace_key: Hashable | None = None
+    ) -> Entry | Dropped | Parked:
         """A message enters the link at time t (non-decreasing across calls)."""
         self.advance_to(t)
-        return self.link.admit(direction, size, kind)
+        return self.link.admit(direction, size, kind, replace_key=replace_key)
 
     def next_release(self) -> float | None:
         """When the next message in either direction is due, if any is in flight."""

@@ -3,8 +3,9 @@
 A message's way through the link, in order (one rule for the proxy and the simulated link):
     held by a `hold` blackout until it ends (a `drop` blackout loses it);
     waits for the wire: behind the messages ahead of it (each takes size / rate on the wire,
-        netem's `rate`), and for the next contact if the schedule has the link closed (`drop`
-        mode loses it instead); a transmission begun in a contact finishes;
+        netem's `rate`), and for a contact it can be sent within, if the schedule has the link
+        closed or the window ends before the message would be off the wire (`drop` mode loses
+        it instead);
     may be lost (loss process);
     travels the one-way delay at the moment it left (the schedule's, + jitter);
     is released at max(that, the previous release): jitter never reorders (unless the profile
@@ -155,7 +156,7 @@ class DelayLine:
         if ready is None:
             return self._drop(kind, size, now, model.version, "blackout")
         wire_at = max(ready, self._wire_free_at)
-        opens = model.plan.next_open(wire_at)
+        opens = model.plan.slot(wire_at, size)
         if opens is None:
             return self._drop(kind, size, now, model.version, "no_contact")
         if opens > wire_at and model.plan.mode == "drop":
@@ -194,7 +195,15 @@ class DelayLine:
         earliest = wire_at + on_wire + travel
         self._seq += 1
         entry = Entry(
-            self._seq, self.direction, kind, size, arrival, earliest, earliest - arrival, model.version, deliver
+            self._seq,
+            self.direction,
+            kind,
+            size,
+            arrival,
+            earliest,
+            earliest - arrival,
+            model.version,
+            deliver,
         )
         if model.profile.reorder:
             heapq.heappush(self._heap, (entry.release_at, entry.seq, entry))
@@ -216,7 +225,7 @@ class DelayLine:
         if not self._parked:
             return None
         first = next(iter(self._parked.values()))
-        opens = first.model.plan.next_open(max(first.ready, self._wire_free_at))
+        opens = first.model.plan.slot(max(first.ready, self._wire_free_at), first.size)
         return opens if opens is not None else first.arrival  # never again: drop it now
 
     def _admit_parked(self, now: float) -> None:
@@ -224,11 +233,13 @@ class DelayLine:
         while (ready := self._parked_ready()) is not None and ready <= now:
             key = next(iter(self._parked))
             p = self._parked.pop(key)
-            opens = p.model.plan.next_open(ready)
+            opens = p.model.plan.slot(ready, p.size)
             if opens is None:
                 self._drop(p.kind, p.size, p.arrival, p.model.version, "no_contact")
                 continue
-            self._enter(p.arrival, opens, p.model, p.size, p.kind, p.deliver, p.lossy, {p.reason: opens - p.arrival})
+            self._enter(
+                p.arrival, opens, p.model, p.size, p.kind, p.deliver, p.lossy, {p.reason: opens - p.arrival}
+            )
 
     @property
     def parked(self) -> int:

@@ -30,16 +30,19 @@ class Link:
         profile: LinkProfile,
         clock: Callable[[], float] = time.monotonic,
         recorder: Recorder | None = None,
+        activated_at: float | None = None,
     ) -> None:
+        """`activated_at`: the clock time the first profile's schedule and blackouts count from
+        (None: now)."""
         self.clock = clock
         self.stats = {d: DirectionStats() for d in DIRECTIONS}
         self.recorder = recorder
         self.lines = {d: DelayLine(d, self._dropped) for d in DIRECTIONS}
-        self._active = self._activate(profile, 1)
+        self._active = self._activate(profile, 1, activated_at)
 
     # ------------------------------------------------------------------ profile
-    def _activate(self, profile: LinkProfile, version: int) -> _Active:
-        now = self.clock()
+    def _activate(self, profile: LinkProfile, version: int, at: float | None = None) -> _Active:
+        now = self.clock() if at is None else at
         models = {d: DirectionModel(profile, d, version, now) for d in DIRECTIONS}
         return _Active(profile, version, now, models)
 

@@ -12,6 +12,7 @@ from pydantic import Field, model_validator
 
 from latency.fields import MAX_DELAY_S, Seconds, StrictModel
 from latency.schedule import Rate, Schedule
+
 Probability = Annotated[float, Field(ge=0.0, le=1.0)]
 Seed = Annotated[int, Field(ge=0, le=2**32 - 1)]
 MAX_DESCRIPTION_CHARS = 2000
@@ -92,9 +93,12 @@ class LinkProfile(StrictModel):
         None, description="contact windows, delay over time and per-window rates (null: always in contact)"
     )
     uplink_bytes_per_s: Rate | None = Field(
-        None, description="[bytes/s] the uplink's rate: a message takes size / rate on the wire (null: unlimited)"
+        None,
+        description="[bytes/s] the uplink's rate: a message takes size / rate on the wire (null: unlimited)",
     )
-    downlink_bytes_per_s: Rate | None = Field(None, description="[bytes/s] the downlink's rate (null: unlimited)")
+    downlink_bytes_per_s: Rate | None = Field(
+        None, description="[bytes/s] the downlink's rate (null: unlimited)"
+    )
     reorder: bool = Field(
         False,
         description="let jitter reorder messages (off: release = max(arrival + delay, previous release))",

@@ -26,8 +26,10 @@ def released_fields(entry: Entry, now: float) -> dict[str, Any]:
         "size": entry.size,
         "arrival": entry.arrival,
         "release": now,
+        "scheduled_release": entry.release_at,
         "configured_delay": entry.configured_delay,
         "realized_delay": now - entry.arrival,
+        "why": entry.waits,
         "profile_version": entry.version,
         "drop_reason": None,
     }
@@ -41,8 +43,10 @@ def dropped_fields(drop: Dropped) -> dict[str, Any]:
         "size": drop.size,
         "arrival": drop.arrival,
         "release": None,
+        "scheduled_release": None,
         "configured_delay": None,
         "realized_delay": None,
+        "why": {},
         "profile_version": drop.version,
         "drop_reason": drop.reason,
     }

@@ -9,10 +9,9 @@ the next contact (`store`, the default) or lost (`drop`); the delay line applies
 
 import bisect
 import math
-
-import numpy as np
 from typing import Annotated, Literal, Self
 
+import numpy as np
 from pydantic import Field, model_validator
 
 from latency.fields import MAX_DELAY_S, Seconds, StrictModel
@@ -21,6 +20,7 @@ MAX_PLAN_S = 30 * 86400.0  # [s] a plan spans at most 30 days
 MAX_CONTACTS = 10_000
 MAX_DELAY_POINTS = 10_000
 MAX_RATE = 1e12  # [bytes/s]
+MAX_SLOT_TRIES = 64  # windows tried for one that a message fits
 
 PlanTime = Annotated[float, Field(ge=0.0, le=MAX_PLAN_S)]
 Rate = Annotated[float, Field(gt=0.0, le=MAX_RATE)]
@@ -48,7 +48,8 @@ class Contact(StrictModel):
 
 
 class DelayPoint(StrictModel):
-    """The one-way delay at one instant; between points it is linear, beyond them held."""
+    """The one-way delay at one instant; between points it is linear, beyond them held; two
+    points at one instant make a step (an ION `range` ending where the next begins)."""
 
     at: PlanTime = Field(description="[s] since the profile took effect")
     one_way_s: Seconds = Field(description="[s] one-way delay (both directions)")
@@ -84,8 +85,8 @@ class Schedule(StrictModel):
         if self.contacts == []:
             raise ValueError("contacts: an empty list is a link that never exists (null: always in contact)")
         times = [p.at for p in self.delay]
-        if times != sorted(times) or len(set(times)) != len(times):
-            raise ValueError("delay points must be in strictly increasing `at`")
+        if times != sorted(times) or any(a == c for a, c in zip(times, times[2:], strict=False)):
+            raise ValueError("delay points must be in increasing `at` (two at one instant: a step)")
         if self.period is not None:
             late = [c for c in self.contacts or [] if c.end > self.period]
             if late:
@@ -173,6 +174,22 @@ class Plan:
             return base + self.period + self._starts[0]
         return None
 
+    def slot(self, t: float, size: int) -> float | None:
+        """The earliest time >= t a message of `size` bytes can start on the wire and be off it
+        before its window closes (ION does not begin a bundle its contact cannot finish); a
+        message too long for every window goes at the first opening, overrunning it. None: the
+        link never opens again."""
+        first = start = self.next_open(t)
+        for _ in range(MAX_SLOT_TRIES):
+            if start is None:
+                return None
+            rate = self.rate(start)
+            close = self.next_close(start) if rate is not None else None
+            if rate is None or close is None or start + size / rate <= close:
+                return start
+            start = self.next_open(close)
+        return first
+
     def next_close(self, t: float) -> float | None:
         """When the window open at t ends (None: it never does, or the link is closed at t)."""
         window = self.window_at(t)
@@ -223,4 +240,3 @@ class Plan:
             return 0.0
         a, b = self._delay_at[i - 1], self._delay_at[i]
         return (self._delay_s[i] - self._delay_s[i - 1]) / (b - a)
-

@@ -55,7 +55,11 @@ class DirectionStats:
             "arrived": self.arrived,
             "released": self.released,
             "dropped": {reason: self.dropped[reason] for reason in DROP_REASONS},
-            "held_now": {"messages": line.held_messages, "bytes": line.held_bytes, "parked_states": line.parked},
+            "held_now": {
+                "messages": line.held_messages,
+                "bytes": line.held_bytes,
+                "parked_states": line.parked,
+            },
             "early_releases": self.early_releases,
             "reorderings": self.reorderings,
             "realized_delay_s": _percentiles(self._realized),

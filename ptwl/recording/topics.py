@@ -164,8 +164,18 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
             "size": {"type": "integer"},
             "arrival": {**_NUM, "description": "[s] link clock"},
             "release": {**_NUM_OR_NULL, "description": "[s] link clock; null if dropped"},
-            "configured_delay": {**_NUM_OR_NULL, "description": "[s]"},
+            "scheduled_release": {
+                **_NUM_OR_NULL,
+                "description": "[s] link clock: when the link's rule let it go (release - this: how late it was)",
+            },
+            "configured_delay": {**_NUM_OR_NULL, "description": "[s] every wait but the FIFO's order"},
             "realized_delay": {**_NUM_OR_NULL, "description": "[s]"},
+            "why": {
+                "type": "object",
+                "description": "[s] each part of its wait: blackout, queue (behind others on the wire), "
+                "contact_gap, serialization (size / rate), delay (one-way + jitter), order (FIFO)",
+                "additionalProperties": _NUM,
+            },
             "drop_reason": {"type": ["string", "null"]},
         },
     ),
