@@ -63,6 +63,10 @@ class Link:
         active = self._active
         return {"version": active.version, **active.profile.model_dump()}
 
+    def rate_now(self, direction: str) -> float | None:
+        """[bytes/s] the direction's rate now (None: unlimited)."""
+        return self._active.models[direction].plan.rate(self.clock())
+
     def outlook(self, now_unix: float) -> dict[str, Any]:
         """The link now and next, per direction (latency/outlook.py), with Unix times."""
         active = self._active

@@ -13,7 +13,12 @@
 - A client's downlink messages wait in its outbox (ptwl/guard/outbox.py, the robot's rule too): a
   state not yet sent is replaced by the newer one, events wait up to 256, then the client is
   closed with 1013; so a client that never reads costs at most that, not a queue that grows.
-- `/_link/...` is the control API: local, never delayed, never forwarded.
+- A schedule and a rate (latency/schedule.py) act per message like the delays. On a narrow or
+  closed downlink a socket's states are parked, the newest replacing the one before, while its
+  events wait their turn; and the robot is told the socket's share of the downlink
+  (ptwl/guard/link_notice.py), so it sends no more states than the link carries.
+- `/_link/...` is the control API: local, never delayed, never forwarded. GET /_link/profile
+  carries the link's `outlook` (latency/outlook.py): what the console counts down from.
 - Access (ptwl/guard/): Host, Origin and the token are checked on every route and socket before
   anything is delayed or forwarded; the upstream sees no Origin (it was judged here). Bodies
   are capped at 64 KiB and must be strict JSON.
@@ -25,6 +30,7 @@
 import asyncio
 import contextlib
 import gc
+import time
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from typing import Any
@@ -47,7 +53,8 @@ from latency.link import Link
 from ptwl.guard.access import AccessPolicy
 from ptwl.guard.disconnect import client_gone
 from ptwl.guard.json_body import JsonBodyError, parse_json
-from ptwl.guard.outbox import Close, Outbox
+from ptwl.guard.link_notice import notice_text
+from ptwl.guard.outbox import Close, Outbox, is_state
 from ptwl.guard.stack import install_guards
 
 HOP_BY_HOP = {
@@ -102,6 +109,7 @@ class LinkProxy:
         self.access = access
         self.driver: RealTimeDriver | None = None
         self.http: aiohttp.ClientSession | None = None
+        self._sockets = 0  # relayed WebSockets open now (they share the downlink)
 
     # ---------------------------------------------------------------- lifecycle
     @asynccontextmanager
@@ -175,7 +183,7 @@ class LinkProxy:
             except ValidationError as err:
                 return JSONResponse({"detail": _problems(err)}, 422)
             self.link.set_profile(profile)
-        return JSONResponse(self.link.profile_view())
+        return JSONResponse({**self.link.profile_view(), "outlook": self.link.outlook(time.time())})
 
     async def stats(self, request: Request) -> Response:
         return JSONResponse(self.link.stats_view())
@@ -280,12 +288,13 @@ class LinkProxy:
             await ws.send_denial_response(JSONResponse({"detail": detail}, 502))
             return
         await ws.accept()
+        self._sockets += 1
         to_client = Outbox()  # bounded: states replaced, events up to a backlog, then 1013
         to_upstream: asyncio.Queue[Any] = asyncio.Queue()
         tasks = [
             asyncio.create_task(self._client_to_link(ws, to_upstream)),
             asyncio.create_task(self._link_to_upstream(upstream, to_upstream)),
-            asyncio.create_task(self._upstream_to_link(upstream, to_client)),
+            asyncio.create_task(self._upstream_to_link(upstream, to_client, to_upstream)),
             asyncio.create_task(self._link_to_client(ws, to_client)),
         ]
         try:
@@ -295,11 +304,28 @@ class LinkProxy:
                 task.cancel()
             await asyncio.gather(*tasks, return_exceptions=True)
             await upstream.close()
+            self._sockets -= 1
 
-    def _admit_ws(self, direction: str, message: Any, put: Callable[[Any], None]) -> None:
+    def _admit_ws(
+        self, direction: str, message: Any, put: Callable[[Any], None], state_key: object = None
+    ) -> None:
+        """Into the link; a downlink state with its socket as `state_key`: replaced by the next
+        one while it waits for the wire (latency/delay_line.py)."""
         size = len(message) if isinstance(message, str | bytes) else 0
-        self.link.admit(direction, size, "ws", lambda: put(message))
+        if state_key is not None and is_state(message):
+            self.link.admit(direction, size, "ws_state", lambda: put(message), replace_key=state_key)
+        else:
+            self.link.admit(direction, size, "ws", lambda: put(message))
         self._release_or_schedule(direction)
+
+    def _tell_downlink(self, told: list[float | None], to_upstream: "asyncio.Queue[Any]") -> None:
+        """Tell the robot this socket's share of the downlink when it changes (at the robot's
+        end, undelayed: ptwl/guard/link_notice.py)."""
+        rate = self.link.rate_now("downlink")
+        share = None if rate is None else rate / max(1, self._sockets)
+        if share != told[0]:
+            told[0] = share
+            to_upstream.put_nowait(notice_text(share))
 
     async def _client_to_link(self, ws: WebSocket, to_upstream: "asyncio.Queue[Any]") -> None:
         with contextlib.suppress(WebSocketDisconnect):
@@ -316,13 +342,18 @@ class LinkProxy:
             while True:
                 await upstream.send(await to_upstream.get())
 
-    async def _upstream_to_link(self, upstream: Any, to_client: Outbox) -> None:
+    async def _upstream_to_link(
+        self, upstream: Any, to_client: Outbox, to_upstream: "asyncio.Queue[Any]"
+    ) -> None:
         code, reason = CLOSE_UPSTREAM_LOST, "upstream connection lost"
+        told: list[float | None] = [None]  # the robot starts unlimited
+        self._tell_downlink(told, to_upstream)
         try:
             async for message in upstream:
                 if to_client.too_slow:
                     return  # its socket is closing: what comes now would only wait
-                self._admit_ws("downlink", message, to_client.put)
+                self._tell_downlink(told, to_upstream)  # a window's rate, or a socket more or less
+                self._admit_ws("downlink", message, to_client.put, state_key=to_client)
             code = upstream.close_code or 1000
             reason = f"upstream closed: {upstream.close_reason or 'normal closure'}"
         except websockets.ConnectionClosed:

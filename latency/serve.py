@@ -3,11 +3,13 @@
 import signal
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import uvicorn
 
 from latency.link import Link
 from latency.named import named_profile
+from latency.plan_file import read_schedule
 from latency.profile import LinkProfile
 from latency.proxy import LinkProxy
 from latency.record import open_recorder
@@ -21,6 +23,9 @@ class ProxyConfig:
     host: str = "127.0.0.1"
     port: int = 8001
     profile: str | None = None
+    schedule: Path | None = None  # a schedule file (TOML) or ION contact plan, over the profile's
+    ground_node: int = 1  # an ION plan's nodes: ground (uplink from) and robot
+    robot_node: int = 2
     uplink: float | None = None
     downlink: float | None = None
     record: Path | None = None
@@ -30,7 +35,11 @@ class ProxyConfig:
 
     def initial_profile(self) -> LinkProfile:
         base = named_profile(self.profile) if self.profile else LinkProfile()
-        update = {k: v for k, v in (("uplink", self.uplink), ("downlink", self.downlink)) if v is not None}
+        update: dict[str, Any] = {
+            k: v for k, v in (("uplink", self.uplink), ("downlink", self.downlink)) if v is not None
+        }
+        if self.schedule is not None:
+            update["schedule"] = read_schedule(self.schedule, self.ground_node, self.robot_node).model_dump()
         return base.merged(update) if update else base
 
 
@@ -44,7 +53,8 @@ def serve_proxy(config: ProxyConfig) -> None:
     proxy = LinkProxy(config.upstream, Link(profile, recorder=recorder), access)
     print(
         f"ptwl proxy: link on {listening_url(sock)} -> {config.upstream} "
-        f"(uplink {profile.uplink:g} s, downlink {profile.downlink:g} s)",
+        f"(uplink {profile.uplink:g} s, downlink {profile.downlink:g} s"
+        f"{', with a schedule' if profile.schedule is not None else ''})",
         flush=True,
     )
     # No permessage-deflate towards clients: the link models a message by its JSON size, so

@@ -178,6 +178,9 @@ def cmd_proxy(args: argparse.Namespace) -> int:
             host=args.host,
             port=args.port,
             profile=args.profile,
+            schedule=args.schedule,
+            ground_node=args.ground_node,
+            robot_node=args.robot_node,
             uplink=args.uplink,
             downlink=args.downlink,
             record=args.record,
@@ -267,6 +270,15 @@ def build_parser() -> argparse.ArgumentParser:
     proxy.add_argument("--host", default="127.0.0.1")
     proxy.add_argument("--port", type=int, default=8001, help="0 picks a free port (printed)")
     proxy.add_argument("--profile", help="a named profile from config/links.toml")
+    proxy.add_argument(
+        "--schedule",
+        type=Path,
+        metavar="FILE",
+        help="contact windows, delay over time and rates: a .toml schedule, or an ION contact plan "
+        "(`a contact`/`a range` lines); over the profile's own",
+    )
+    proxy.add_argument("--ground-node", type=int, default=1, help="an ION plan's ground node (default 1)")
+    proxy.add_argument("--robot-node", type=int, default=2, help="an ION plan's robot node (default 2)")
     proxy.add_argument("--uplink", type=float, help="[s] one-way delay, operator to robot")
     proxy.add_argument("--downlink", type=float, help="[s] one-way delay, robot to operator")
     proxy.add_argument(

@@ -88,7 +88,9 @@ def check_record(records: list[dict], direction: str, n_min: int) -> list[dict]:
     messages against its own schedule (each message due at arrival + delay, never before the one
     ahead of it is due) and fails the median. The tail is judged against the release ahead as it
     really happened, so the messages queued behind one host stall count once, not all late."""
-    rows = [r for r in records if r["direction"] == direction and r["kind"] == "ws" and r["release"]]
+    rows = [
+        r for r in records if r["direction"] == direction and r["kind"] in ("ws", "ws_state") and r["release"]
+    ]
     assert len(rows) >= n_min
     assert [r["seq"] for r in rows] == sorted(r["seq"] for r in rows)  # FIFO
     previous_release = previous_due = float("-inf")

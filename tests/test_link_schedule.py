@@ -81,14 +81,16 @@ def test_a_message_that_cannot_finish_before_the_gap_waits_for_the_next_contact(
     sim.send(9.0, "downlink", size=1500)
     sim.send(9.1, "downlink", size=100)
     sim.advance_to(60.0)
-    (t1, first), (t2, second) = released(sim)
+    (t1, first), (t2, _) = released(sim)
     assert t1 == pytest.approx(20.0 + 1.5 + 0.5)
     assert t2 == pytest.approx(20.0 + 1.5 + 0.1 + 0.5)
     assert first.waits["contact_gap"] == pytest.approx(11.0)
 
 
 def test_a_window_rate_overrides_the_profile_rate() -> None:
-    schedule = {"contacts": [{"start": 0.0, "end": 10.0, "rate_bytes_per_s": 100.0}, {"start": 10.0, "end": 50.0}]}
+    schedule = {
+        "contacts": [{"start": 0.0, "end": 10.0, "rate_bytes_per_s": 100.0}, {"start": 10.0, "end": 50.0}]
+    }
     profile = LinkProfile.model_validate({"downlink_bytes_per_s": 1000.0, "schedule": schedule})
     sim = SimulatedLink(profile)
     sim.send(1.0, "downlink", size=100)
@@ -132,6 +134,7 @@ def test_the_plan_starts_where_the_trial_is_put_in_the_pass() -> None:
     sim.advance_to(8000.0)
     ((t, entry),) = released(sim, "uplink")
     assert entry.waits["contact_gap"] == pytest.approx(7200.0 - 1505.0)
+    assert t == pytest.approx(7200.0 - 1495.0 + 10 / 1000.0 + 1.31)  # next pass + 10 B at 1 kB/s + delay
 
 
 def test_on_a_2_kB_s_downlink_states_are_replaced_and_events_keep_their_order() -> None:
@@ -259,7 +262,15 @@ def test_an_ion_contact_plan_gives_the_same_windows_as_its_toml(tmp_path: Path) 
     for direction, rate in (("uplink", 4000.0), ("downlink", 16000.0)):
         plan = Plan(ion, direction, 0.0, None, 0.0)
         probes = [0.0, 599.0, 600.0, 1000.0, 1800.0, 2399.0, 2400.0]
-        assert [plan.window_at(t) is not None for t in probes] == [True, True, False, False, True, True, False]
+        assert [plan.window_at(t) is not None for t in probes] == [
+            True,
+            True,
+            False,
+            False,
+            True,
+            True,
+            False,
+        ]
         assert plan.rate(100.0) == rate
         assert plan.next_open(700.0) == 1800.0
     plan = Plan(ion, "downlink", 0.0, None, 0.0)
@@ -269,7 +280,10 @@ def test_an_ion_contact_plan_gives_the_same_windows_as_its_toml(tmp_path: Path) 
 @pytest.mark.parametrize(
     ("text", "fragment"),
     [
-        ("a contact 2026/11/27-12:00:00 +600 1 2 100\n", r"plan.ion:1: time '2026/11/27-12:00:00' is absolute"),
+        (
+            "a contact 2026/11/27-12:00:00 +600 1 2 100\n",
+            r"plan.ion:1: time '2026/11/27-12:00:00' is absolute",
+        ),
         ("# c\na contact +0 +600 1 2\n", r"plan.ion:2: `a contact` needs \+START \+END FROM TO VALUE"),
         ("a contact +0 +600 1 2 fast\n", r"plan.ion:1: rate 'fast' is not a number"),
         ("a contact +0 +600 3 4 100\n", r"no contact between nodes 1 and 2"),
@@ -302,7 +316,15 @@ def test_a_bad_schedule_is_refused_naming_the_field(schedule: dict[str, Any], fr
 
 def test_overlapping_windows_of_a_direction_merge() -> None:
     schedule = LinkProfile.model_validate(
-        {"schedule": {"contacts": [{"start": 0.0, "end": 10.0}, {"start": 5.0, "end": 20.0}, {"start": 20.0, "end": 30.0}]}}
+        {
+            "schedule": {
+                "contacts": [
+                    {"start": 0.0, "end": 10.0},
+                    {"start": 5.0, "end": 20.0},
+                    {"start": 20.0, "end": 30.0},
+                ]
+            }
+        }
     ).schedule
     plan = Plan(schedule, "uplink", 0.0, None, 0.0)
     assert plan.next_close(1.0) == 30.0

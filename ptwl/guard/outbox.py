@@ -11,6 +11,10 @@ robot's and the link's), so a client that cannot keep up costs a stated amount o
   1013 (try again later): it reconnects and re-reads what it missed (the console does, from
   GET /api/commands and /api/frames).
 
+- **States within the link's rate.** On a socket the link has told its downlink rate, a state
+  is queued only if the states before it used at most `STATE_SHARE` of that rate: a 2 kB/s
+  link gets ~1 state a second, the newest, not a queue the link must throw away.
+
 So a client holds at most `backlog` events and the states of the last 2 s (100 at 50 Hz; the
 robot's rate is at most 500 Hz; a burst the link releases at once is bounded by its own buffer).
 """
@@ -20,14 +24,18 @@ import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TypeGuard
 
 EVENT_BACKLOG = 256  # events a client may fall behind (minutes of commands) before it is closed
 MAX_STATE_WAIT_S = 2.0  # a state waiting longer for a client is dropped when a newer one comes
 CLOSE_TOO_SLOW = 1013  # "try again later"
+# Of a downlink the link tells (ptwl/guard/link_notice.py), the share states may use: the rest
+# carries events, HTTP replies and other clients' traffic without a queue behind states.
+STATE_SHARE = 0.5
 STATE_PREFIX = '{"type": "state"'  # how a state message begins (json.dumps, type first)
 
 
-def is_state(message: object) -> bool:
+def is_state(message: object) -> TypeGuard[str]:
     return isinstance(message, str) and message.startswith(STATE_PREFIX)
 
 
@@ -54,6 +62,14 @@ class Outbox:
         self.too_slow = False
         self.gone = False  # the client went away: nothing more to send
         self.replaced = 0  # states dropped for newer ones before they were sent
+        self.thinned = 0  # states not queued to keep within the link's downlink
+        self._downlink: float | None = None  # [bytes/s] the link's told share (None: unlimited)
+        self._next_state_at = 0.0
+
+    def set_downlink(self, bytes_per_s: float | None) -> None:
+        """Send states at most at the rate STATE_SHARE of `bytes_per_s` carries (None: all)."""
+        self._downlink = bytes_per_s
+        self._next_state_at = 0.0
 
     def __len__(self) -> int:
         return len(self._items)
@@ -64,6 +80,11 @@ class Outbox:
             return
         if is_state(message):
             now = self._clock()
+            if self._downlink is not None:
+                if now < self._next_state_at:
+                    self.thinned += 1
+                    return
+                self._next_state_at = now + len(message) / (STATE_SHARE * self._downlink)
             while self._state_times and now - self._state_times[0] > MAX_STATE_WAIT_S:
                 self._state_times.popleft()
                 self._items.remove(next(m for m in self._items if is_state(m)))  # the oldest

@@ -166,7 +166,7 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
             "release": {**_NUM_OR_NULL, "description": "[s] link clock; null if dropped"},
             "scheduled_release": {
                 **_NUM_OR_NULL,
-                "description": "[s] link clock: when the link's rule let it go (release - this: how late it was)",
+                "description": "[s] link clock: when its rule let it go (release minus this: how late)",
             },
             "configured_delay": {**_NUM_OR_NULL, "description": "[s] every wait but the FIFO's order"},
             "realized_delay": {**_NUM_OR_NULL, "description": "[s]"},
