@@ -141,13 +141,17 @@ class RobotClient:
         )
 
     # -------------------------------------------------------------------- writes
-    def command(self, type: str, sender: str | None = None, **params: Any) -> CommandAccepted:
+    def command(
+        self, type: str, sender: str | None = None, *, http_timeout_s: float | None = None, **params: Any
+    ) -> CommandAccepted:
         """Queue a behavior: `type` is ptwl, rwe or dither; params as in the API (SI units);
         `sender` is kept in the command's record (who sent it). The command is stamped with
-        `sent_at` (now, Unix time) unless it has one, so a `max_age` is judged from its sending."""
+        `sent_at` (now, Unix time) unless it has one, so a `max_age` is judged from its sending.
+        `http_timeout_s`: wait this long for the answer (a link holding it for its next contact)."""
         headers = {SENDER_HEADER: sender} if sender else None
         body = {"type": type, "sent_at": time.time(), **params}
-        return CommandAccepted(**self._request("POST", "/api/commands", json=body, headers=headers))
+        wait = {} if http_timeout_s is None else {"timeout": httpx.Timeout(http_timeout_s)}
+        return CommandAccepted(**self._request("POST", "/api/commands", json=body, headers=headers, **wait))
 
     def decide(self, command_id: int, **decision: Any) -> CommandStatus:
         """Answer a running state machine's pending decision (`decision`, `choice`, and `outcome`

@@ -32,6 +32,7 @@ class Broadcaster:
             sub.put(text)
 
 
-def stamped(text: str) -> str:
-    """A message (a JSON object's text) with `sent_at`, the wall clock now, added as it leaves."""
-    return f'{text[:-1]}, "sent_at": {time.time():.6f}}}'
+def stamped(text: str, extra: str = "") -> str:
+    """A message (a JSON object's text) with `sent_at`, the wall clock now, added as it leaves
+    (and `extra` fields, `, "name": value` text)."""
+    return f'{text[:-1]}{extra}, "sent_at": {time.time():.6f}}}'

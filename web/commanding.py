@@ -21,9 +21,10 @@ from web.checks import Check, check_command
 from web.command_log import CommandLog
 from web.defaults import ConsoleDefaults
 from web.known_frames import KnownFrames
+from web.link_plan import SendPlan, clock_text, plan_send, run_time_s, sim_time_at
 from web.notifier import Notifier
 from web.preview import Previewer, PreviewResult
-from web.robot_link import RobotLink
+from web.robot_link import HTTP_TIMEOUT_S, RobotLink
 from web.seat import ControlSeat, operator_name
 from web.stop_sender import StopSender
 from web.targets import ptwl_target
@@ -32,6 +33,11 @@ from web.twin_sim import point_from_state
 
 if TYPE_CHECKING:
     from web.desk import Desk
+
+
+# [s] the longest a console waits on a command the link holds for its next contact; past it the
+# console gives up (the link then lets the request go, and the log says "not delivered").
+MAX_HELD_WAIT_S = 3 * 3600.0
 
 
 class Commanding:
@@ -99,13 +105,22 @@ class Commanding:
         sender = f"{desk.name} at console {self._console_name}"
         target = self.target_of(params) if behavior == "ptwl" else None  # Send step's: the step's
         view = self._log.sent(behavior, target, sender)
-        max_age_s = self._link.rtt_s() + self._defaults.max_age_over_rtt_s
-        stamped = {"max_age": max_age_s, "sent_at": time.time(), **params}
+        now = time.time()
+        # A closed uplink holds the command for its next contact: it is that much older when it
+        # arrives (max_age), and its answer that much later (the HTTP wait).
+        held_until = plan_send(self._link.outlook(), now, None).held_until
+        held_s = 0.0 if held_until is None else min(held_until - now, MAX_HELD_WAIT_S)
+        if held_until is not None:
+            view.detail = f"held by the link for the next contact at {clock_text(held_until)}"
+            self._log.changed(view)
+        max_age_s = self._link.rtt_s() + held_s + self._defaults.max_age_over_rtt_s
+        stamped = {"max_age": max_age_s, "sent_at": now, **params}
         checked = self.check(behavior, stamped).params
         if self.twin is not None and isinstance(checked, BehaviorParams):  # the ghost moves at once
             self.twin.on_sent(Sent(checked, stamped["sent_at"], lambda: view.phase in ("sent", "queued")))
         try:
-            accepted = self._link.client.command(behavior, sender=sender, **stamped)
+            wait_s = HTTP_TIMEOUT_S + held_s if held_until is not None else None
+            accepted = self._link.client.command(behavior, sender=sender, http_timeout_s=wait_s, **stamped)
         except RobotError as err:
             self._log.history.refused(view, str(err.detail))
             self._notifier.notify("Command refused", str(err.detail), "red")
@@ -113,10 +128,23 @@ class Commanding:
             self._log.history.refused(view, f"link: {type(err).__name__}")
             self._notifier.notify("Command not delivered", f"{type(err).__name__}: {err}", "red")
         else:
+            if held_until is not None:
+                view.detail = ""  # it has arrived
             self._log.history.accepted(view, accepted.id)
             for warning in accepted.warnings:
                 self._notifier.notify(f"#{accepted.id}: check the approach", warning, "orange")
         self._log.changed(view)
+
+    def plan_send(self, behavior: str, params: dict[str, Any]) -> tuple[SendPlan, float | None]:
+        """What the link's schedule means for this command sent now (web/link_plan.py), and the
+        robot's sim time of its latest start that still finishes before the loss of signal (None:
+        there is none, or no state to tell the robot's time by)."""
+        checked = self.check(behavior, params).params
+        plan = plan_send(self._link.outlook(), time.time(), run_time_s(checked) if checked else None)
+        state, _ = self._link.latest()
+        if plan.latest_start is None or state is None:
+            return plan, None
+        return plan, sim_time_at(plan.latest_start, state)
 
     def target_of(self, params: dict[str, Any]) -> PoseArrays | None:
         """Where a PTWL as sent goes from the port shown (None without a port, or in a frame not

@@ -18,6 +18,7 @@ from web.defaults import ConsoleDefaults
 from web.desk_preview import DeskPreview
 from web.frames_view import FramesView
 from web.label_places import CONTEMPLATED
+from web.link_plan import SendPlan
 from web.markers import TargetMarker
 from web.markup import Markup, add_html
 from web.panel import Panel
@@ -49,6 +50,8 @@ class DeskServices(Protocol):
     def machine(self) -> tuple[dict[str, Any] | None, float | None]: ...
 
     def decide(self, desk: "Desk", command_id: int, body: dict[str, Any]) -> None: ...
+
+    def plan_send(self, behavior: str, params: dict[str, Any]) -> tuple[SendPlan, float | None]: ...
 
 
 @dataclass(frozen=True)
@@ -162,8 +165,43 @@ class Desk:
         except FieldError as err:
             self.client.add_notification("Not sent: a field is marked in red", err.reason, color="red")
             return
+        plan, valid_until = self._services.plan_send(behavior, params)
+        if plan.may_outlast_contact:
+            self._confirm_before_los(behavior, params, plan.text, valid_until)
+            return
         self.preview.clear()
         self._services.send(self, behavior, params)
+
+    def _confirm_before_los(
+        self, behavior: str, params: dict[str, Any], warning: str, valid_until: float | None
+    ) -> None:
+        """The command may not finish before the next loss of signal: say so and offer to send
+        it so it will not start too late (valid_until_sim_time), as it is, or not at all."""
+        gui = self.client.gui
+        with gui.add_modal("Signal may be lost before it finishes") as modal:
+            add_html(gui, Markup('<p id="ptwl-los-warning">{}</p>').format(warning))
+            buttons = []
+            if valid_until is not None:
+                limited = gui.add_button(
+                    f"Send: start by sim time {valid_until:.1f} s at the latest", color="green"
+                )
+                buttons.append((limited, {**params, "valid_until_sim_time": round(valid_until, 3)}))
+            else:
+                add_html(gui, Markup("<p>It cannot start in time to finish before then.</p>"))
+            buttons.append((gui.add_button("Send as it is", color="orange"), params))
+            cancel = gui.add_button("Cancel", color="gray")
+
+        def sender(body: dict[str, Any]) -> Callable[[Any], None]:
+            def send(_: Any) -> None:
+                modal.close()
+                self.preview.clear()
+                self._services.send(self, behavior, body)
+
+            return send
+
+        for button, body in buttons:
+            button.on_click(sender(body))
+        cancel.on_click(lambda _: modal.close())
 
     def _take_control(self) -> None:
         """Take control at once when nobody has it; from another operator, only once confirmed

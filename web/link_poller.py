@@ -1,6 +1,7 @@
 """The link's own profile (GET /_link/profile, local to the proxy and never delayed), polled so
 the console knows the round trip it is working across; stoppable."""
 
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -10,6 +11,21 @@ from ptwl.guard.access import bearer_header
 from web.worker import Worker
 
 POLL_S = 2.0
+UNIX_FIELDS = ("changes_at_unix", "closed_since_unix")
+
+
+def on_local_clock(outlook: dict[str, Any], local_now: float) -> dict[str, Any]:
+    """The outlook with its Unix times moved to this console's clock (the proxy's may differ;
+    the control API answers at once, so its `now_unix` is our `local_now`)."""
+    shift = local_now - float(outlook["now_unix"])
+    moved: dict[str, Any] = {"now_unix": local_now}
+    for direction in ("uplink", "downlink"):
+        d = dict(outlook[direction])
+        for name in UNIX_FIELDS:
+            if d.get(name) is not None:
+                d[name] = float(d[name]) + shift
+        moved[direction] = d
+    return moved
 
 
 class LinkPoller(Worker):
@@ -19,6 +35,7 @@ class LinkPoller(Worker):
         self._on_text = on_text
         self.rtt_s = 0.0
         self.profile: dict[str, Any] | None = None
+        self.outlook: dict[str, Any] | None = None  # the link's now and next, on this console's clock
         super().__init__("ptwl-link-profile", join_timeout_s=POLL_S + 1.0)
 
     def _run(self) -> None:
@@ -32,9 +49,11 @@ class LinkPoller(Worker):
         except httpx.HTTPError as err:
             return f"link: its control API does not answer ({type(err).__name__})"
         if response.status_code != 200:
-            self.profile, self.rtt_s = None, 0.0
+            self.profile, self.outlook, self.rtt_s = None, None, 0.0
             return "link: direct connection (no link proxy)"
         p = self.profile = response.json()
+        outlook = p.get("outlook")
+        self.outlook = on_local_clock(outlook, time.time()) if isinstance(outlook, dict) else None
         self.rtt_s = float(p["uplink"]) + float(p["downlink"])
         described = f": {p['description']}" if p.get("description") else ""
         return (

@@ -49,7 +49,13 @@ class RobotLink:
         def state(message: dict[str, Any], arrived: float) -> None:
             with self._lock:
                 previous, self._state, self._arrived = self._state, message, arrived
-            self.health.on_state(message["seq"], float(message["sent_at"]), arrived)
+            self.health.on_state(
+                message["seq"],
+                float(message["sent_at"]),
+                arrived,
+                int(message.get("skipped", 0)),
+                float(message["every_s"]) if "every_s" in message else None,
+            )
             on_state(message, arrived, previous)
 
         def link(text: str) -> None:
@@ -84,6 +90,14 @@ class RobotLink:
     def rtt_s(self) -> float:
         """[s] the link's configured round trip (0 without a link)."""
         return self.poller.rtt_s if self.poller is not None else 0.0
+
+    def outlook(self) -> dict[str, Any] | None:
+        """The link's schedule now and next (latency/outlook.py) on this console's clock; None
+        without a link proxy."""
+        return self.poller.outlook if self.poller is not None else None
+
+    def profile(self) -> dict[str, Any] | None:
+        return self.poller.profile if self.poller is not None else None
 
     def uplink_s(self) -> float:
         profile = self.poller.profile if self.poller is not None else None

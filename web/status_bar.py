@@ -67,6 +67,9 @@ class BarInputs:
     twin_sure: bool = False
     twin_note: str = ""  # why there is no prediction (the twin idles on a short link)
     recording: str = ""  # a replay: what is played (then nothing here reaches a robot)
+    schedule: str = ""  # the link's schedule now and next (web/link_plan.py); "" on a plain link
+    lost_since: float | None = None  # [s] Unix: the downlink closed then (loss of signal)
+    state_every_s: float = 0.0  # [s] between states on a thinned socket (0: every state comes)
 
 
 class StatusBar(Worker):
@@ -143,7 +146,7 @@ def _render(inputs: BarInputs, age: float | None, level: Level) -> Markup:
         "{dead}"
         '<div id="ptwl-telemetry" data-seq="{seq}" data-arrived="{arrived}" data-age="{age}" '
         'data-level="{level}" data-link="{link_up}" data-rtt="{rtt}">{robot}{stale}</div>'
-        "{link}"
+        "{link}{schedule}"
         '<div id="ptwl-running">{command} · <span id="ptwl-holder">control: {holder}</span></div>'
         "{prediction}{task}{monitor}</div>"
     ).format(
@@ -158,6 +161,7 @@ def _render(inputs: BarInputs, age: float | None, level: Level) -> Markup:
         robot=robot,
         stale=stale,
         link=link,
+        schedule=_schedule_html(inputs.schedule, inputs.lost_since),
         command=inputs.command,
         holder=inputs.holder or "nobody",
         prediction=_prediction_html(
@@ -171,6 +175,16 @@ def _render(inputs: BarInputs, age: float | None, level: Level) -> Markup:
         monitor=monitor_html(
             state.get("monitor") if state else None, bool(state and state.get("active_command") is not None)
         ),
+    )
+
+
+def _schedule_html(line: str, lost_since: float | None) -> Markup:
+    """The link schedule's line: red through a loss of signal."""
+    if not line:
+        return Markup("")
+    lost = lost_since is not None
+    return Markup('<div id="ptwl-schedule" data-los="{}" style="color:{};{}">{}</div>').format(
+        int(lost), LEVEL_COLORS["stale"] if lost else "#495057", "font-weight:700" if lost else "", line
     )
 
 
@@ -216,7 +230,8 @@ def _judge(inputs: BarInputs, now: float) -> tuple[float | None, Level]:
     """([s] how old the state is now, from when the robot sent it and counting on while nothing
     comes; how far to trust it)."""
     age = None if inputs.state is None else now - float(inputs.state["sent_at"])
-    return age, staleness(age, inputs.rtt_s, inputs.link_up)
+    # A thinned socket's next state is due state_every_s after the last: not late before then.
+    return age, staleness(age, inputs.rtt_s + inputs.state_every_s, inputs.link_up)
 
 
 def _fraction_done(progress: float | None, target: float, at_most: bool) -> float:

@@ -8,6 +8,7 @@ import viser
 
 from web.command_log import CommandLog
 from web.commanding import Commanding
+from web.link_plan import clock_text, duration_text, has_schedule, schedule_line, signal
 from web.robot_link import RobotLink
 from web.robot_view import RobotView
 from web.scene_keeper import SceneKeeper
@@ -32,6 +33,8 @@ class StatusRoom:
         self._link, self._log, self._commanding, self._seat = link, log, commanding, seat
         self._scene, self._twin, self._view = scene, twin, view
         self.recording = ""  # a replay's file name: the bar says it is a recording
+        self._level: Level = "stale"
+        self._los_label: str | None = None  # the robot's label through a loss of signal
         self.bar = StatusBar(gui, self.inputs, self.on_level, self.on_tick)  # drawn from this model
 
     def inputs(self) -> BarInputs:
@@ -46,6 +49,13 @@ class StatusRoom:
             command += f" (by {shown.sender.split(' at console')[0]})"
         if len(running) > 1:
             command += f" · {len(running) - 1} more queued"
+        if shown is not None and shown.phase == "sent" and shown.detail:
+            command += f" · {shown.detail}"  # held by the link for its next contact
+        outlook = self._link.outlook()
+        now = time.time()
+        every_s = self._link.health.every_s
+        scheduled = outlook is not None and has_schedule(self._link.profile())
+        lost_since = signal(outlook, now).lost_since if outlook is not None and scheduled else None
         rtt = self._link.rtt_s()
         twin = self._twin
         prediction = twin.prediction if twin is not None else None
@@ -67,6 +77,9 @@ class StatusRoom:
             twin_sure=trust is not None and trust.sure,
             twin_note=twin.idle_note() if twin is not None else "",
             recording=self.recording,
+            schedule=schedule_line(outlook, now, every_s) if outlook is not None and scheduled else "",
+            lost_since=lost_since,
+            state_every_s=every_s or 0.0,
         )
 
     def on_tick(self, inputs: BarInputs) -> None:
@@ -74,8 +87,26 @@ class StatusRoom:
         the twin's 50 Hz thread does no second judging, and a lagging twin is still labelled."""
         if self._twin is not None and inputs.predicted_port is not None:
             self._twin.ghost.set_label(ghost_label(TwinTrust(inputs.twin_sure), inputs.twin_readout))
+        self._show_loss_of_signal(inputs)
+
+    def _show_loss_of_signal(self, inputs: BarInputs) -> None:
+        """Through a loss of signal the robot is drawn grey with the time since the last contact
+        (once a second: the label's text); after it, as its state's trust says."""
+        if inputs.lost_since is None:
+            if self._los_label is not None:
+                self._los_label = None
+                self.on_level(self._level)
+            return
+        since = inputs.lost_since
+        label = f"LOSS OF SIGNAL since {clock_text(since)} ({duration_text(time.time() - since)})"
+        if label != self._los_label:
+            self._los_label = label
+            self._view.set_stale(True, label)
 
     def on_level(self, level: Level) -> None:
+        self._level = level
+        if self._los_label is not None:
+            return  # the loss of signal's label stands until contact is back
         silent_s = self._link.health.silent_s(time.time())
         said = "link down" if not self._link.link_up else f"no telemetry for {silent_s or 0.0:.0f} s"
         self._view.set_stale(level == "stale", f"STALE: {said}")

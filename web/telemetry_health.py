@@ -39,17 +39,23 @@ class TelemetryHealth:
         self.period_s: float | None = None  # [s] between the robot's states, as measured
         self.lost = 0  # messages lost since this console started
         self.last_gap: Gap | None = None
+        self.every_s: float | None = None  # [s] the robot's interval on a thinned socket
 
     def on_transport(self, up: bool, text: str) -> None:
         with self._lock:
             self._transport_up, self._transport_text = up, text
 
-    def on_state(self, seq: int, sent_at: float, arrived: float) -> int:
-        """A state arrived; returns how many the link lost just before it."""
+    def on_state(
+        self, seq: int, sent_at: float, arrived: float, skipped: int = 0, every_s: float | None = None
+    ) -> int:
+        """A state arrived; returns how many the link lost just before it. `skipped`: states the
+        robot left out before it on this socket (a narrow downlink's thinning, not a loss);
+        `every_s`: its interval between states then (None: every state is sent)."""
         with self._lock:
             lost = 0
+            self.every_s = every_s
             if self._seq is not None and self._sent_at is not None and seq > self._seq:
-                lost = seq - self._seq - 1
+                lost = max(0, seq - self._seq - 1 - skipped)
                 period = (sent_at - self._sent_at) / (seq - self._seq)
                 if period > 0:
                     self.period_s = (
@@ -73,7 +79,7 @@ class TelemetryHealth:
         """The link's line of the status bar."""
         with self._lock:
             up, text, arrived = self._transport_up, self._transport_text, self._arrived
-            period, gap, lost = self.period_s, self.last_gap, self.lost
+            period, gap, lost, every_s = self.period_s, self.last_gap, self.lost, self.every_s
         head = f"link round trip {rtt_s:g} s · "
         if not up:
             silent = "" if arrived is None else f" (nothing for {now - arrived:.1f} s)"
@@ -81,8 +87,10 @@ class TelemetryHealth:
         if arrived is None:
             return LinkLine("stale", head + "connected; no telemetry yet")
         silent_s = now - arrived
-        if silent_s > SILENT_AFTER_S:
-            missing = f" (~{round(silent_s / period)} messages lost)" if period else ""
+        # On a thinned socket the next state is due every_s after the last: silent only past that.
+        if silent_s > SILENT_AFTER_S + (every_s or 0.0):
+            sent_every = every_s or period
+            missing = f" (~{round(silent_s / sent_every)} messages lost)" if sent_every else ""
             return LinkLine(
                 "stale",
                 head + f"no telemetry for {silent_s:.1f} s{missing}; the link is connected but silent",
@@ -91,6 +99,8 @@ class TelemetryHealth:
         after = (
             f" · {gap.lost} messages lost in a gap {now - gap.ended_at:.0f} s ago" if recent and gap else ""
         )
+        thinned = f" · states every {every_s:.1f} s (the downlink's rate)" if every_s else ""
         return LinkLine(
-            "late" if recent else "fresh", head + f"connected · telemetry flowing ({lost} lost in all){after}"
+            "late" if recent else "fresh",
+            head + f"connected · telemetry flowing ({lost} lost in all){thinned}{after}",
         )

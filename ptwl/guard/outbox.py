@@ -65,11 +65,24 @@ class Outbox:
         self.thinned = 0  # states not queued to keep within the link's downlink
         self._downlink: float | None = None  # [bytes/s] the link's told share (None: unlimited)
         self._next_state_at = 0.0
+        self._skipped = 0  # states thinned since the last one queued
+        self.state_every_s: float | None = None  # [s] between the states queued, when thinned
 
     def set_downlink(self, bytes_per_s: float | None) -> None:
         """Send states at most at the rate STATE_SHARE of `bytes_per_s` carries (None: all)."""
         self._downlink = bytes_per_s
         self._next_state_at = 0.0
+        if bytes_per_s is None:
+            self.state_every_s = None
+
+    def thinning_fields(self) -> str:
+        """For the state being sent on a thinned socket: `, "skipped": N, "every_s": T` (the
+        states left out before it, and the interval now), so a client counts none of them as
+        lost and expects the next state when it will come; "" on a socket sent every state."""
+        if self.state_every_s is None:
+            return ""
+        skipped, self._skipped = self._skipped, 0
+        return f', "skipped": {skipped}, "every_s": {self.state_every_s:.6f}'
 
     def __len__(self) -> int:
         return len(self._items)
@@ -83,8 +96,10 @@ class Outbox:
             if self._downlink is not None:
                 if now < self._next_state_at:
                     self.thinned += 1
+                    self._skipped += 1
                     return
-                self._next_state_at = now + len(message) / (STATE_SHARE * self._downlink)
+                self.state_every_s = len(message) / (STATE_SHARE * self._downlink)
+                self._next_state_at = now + self.state_every_s
             while self._state_times and now - self._state_times[0] > MAX_STATE_WAIT_S:
                 self._state_times.popleft()
                 self._items.remove(next(m for m in self._items if is_state(m)))  # the oldest

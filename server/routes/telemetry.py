@@ -14,7 +14,7 @@ import contextlib
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 
 from ptwl.guard.link_notice import is_notice, parse_notice
-from ptwl.guard.outbox import Close, Outbox
+from ptwl.guard.outbox import Close, Outbox, is_state
 from server.telemetry import Broadcaster, stamped
 
 router = APIRouter(tags=["telemetry"])
@@ -57,7 +57,8 @@ async def telemetry(ws: WebSocket) -> None:
                 if not sub.gone:
                     await ws.close(message.code, message.reason)
                 return
-            await ws.send_text(stamped(str(message)))
+            text = str(message)
+            await ws.send_text(stamped(text, sub.thinning_fields() if is_state(text) else ""))
     except (WebSocketDisconnect, RuntimeError):
         return
     finally:
