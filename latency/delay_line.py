@@ -11,8 +11,8 @@ A message's way through the link, in order (one rule for the proxy and the simul
     is released at max(that, the previous release): jitter never reorders (unless the profile
         asks for it), a long delay never lets a later message overtake, nothing leaves early.
 
-A state (a message with a `replace_key`) that would have to wait for the wire is parked instead,
-one per key, the latest replacing the one before ("superseded"); it takes the wire when the wire
+A state (a message with a `replace_key`) that would have to wait for the wire (behind others, or
+for a contact) is parked instead, one per key, the latest replacing the one before ("superseded"); it takes the wire when the wire
 is free. So a narrow or closed downlink carries the newest state, never an ever-growing queue of
 old ones, while events wait their turn and are never dropped for states. The caller passes
 `now` in; real-time and simulated drivers both use this class unchanged.
@@ -74,7 +74,7 @@ class Parked:
     deliver: Callable[[], object] | None
     lossy: bool
     ready: float  # [s] when it may go, past any blackout
-    reason: str  # what it waits for: blackout | queue | contact_gap
+    reason: str  # what it waits for: queue | contact_gap
 
 
 class DirectionModel:
@@ -161,8 +161,11 @@ class DelayLine:
             return self._drop(kind, size, now, model.version, "no_contact")
         if opens > wire_at and model.plan.mode == "drop":
             return self._drop(kind, size, now, model.version, "contact_gap")
-        if replace_key is not None and opens > now:
-            reason = "contact_gap" if opens > wire_at else "queue" if wire_at > ready else "blackout"
+        # A state parks while the wire is busy or the schedule has the link closed; a blackout
+        # alone stores it like any message (a blackout is seconds; a pass's gap can be hours,
+        # and 50 Hz states held through it would fill the buffer, whose overflow loses events).
+        if replace_key is not None and opens > ready:
+            reason = "contact_gap" if opens > wire_at else "queue"
             parked = Parked(self.direction, kind, size, now, model, deliver, lossy, ready, reason)
             before = self._parked.pop(replace_key, None)
             if before is not None:

@@ -1,6 +1,6 @@
 """The `ptwl` command line.
 
-    ptwl up [--scene NAME] [--rtt S | --profile NAME]    server + link + console, prints the URL
+    ptwl up [--scene NAME] [--rtt S | --profile NAME] [--schedule FILE]    robot, link and console
     ptwl serve | ptwl proxy | ptwl console               each of those alone
     ptwl sim [--scene NAME] [--demo] [--seconds S]        the robot alone, headless, real time
     ptwl scenes | ptwl presets                            what exists
@@ -81,6 +81,7 @@ def _stop_on_sigterm(signum: int, frame: object) -> None:
 
 
 def cmd_up(args: argparse.Namespace) -> int:
+    from latency.plan_file import read_schedule
     from ptwl.recording.paths import check_record_path
     from ptwl.up import link_record, up
 
@@ -91,6 +92,9 @@ def cmd_up(args: argparse.Namespace) -> int:
         if args.profile
         else ["--uplink", f"{args.rtt / 2}", "--downlink", f"{args.rtt / 2}"]
     )
+    if args.schedule is not None:
+        read_schedule(args.schedule)  # refused here, naming the file and line, before anything starts
+        link_args += ["--schedule", str(args.schedule.resolve())]
     if args.record is not None:
         check_record_path(args.record)
         check_record_path(link_record(args.record))
@@ -216,6 +220,12 @@ def build_parser() -> argparse.ArgumentParser:
     link = up.add_mutually_exclusive_group()
     link.add_argument("--rtt", type=float, default=0.0, help="[s] round trip, split evenly (default 0)")
     link.add_argument("--profile", help="a named link profile from config/links.toml")
+    up.add_argument(
+        "--schedule",
+        type=Path,
+        metavar="FILE",
+        help="the link's contact windows, delay over time and rates (a .toml schedule or an ION plan)",
+    )
     up.add_argument("--server-port", type=int, default=8000)
     up.add_argument("--proxy-port", type=int, default=8001)
     up.add_argument("--console-port", type=int, default=8080)

@@ -17,7 +17,16 @@ from robot_sim.params import DitherParams, GripperParams, PtwlParams, RweParams
 from server.client import RobotClient
 from tests.test_console_logic import viser_client, wait_for_state
 from web.app import ConsoleApp
-from web.link_plan import direction_now, duration_text, plan_send, run_time_s, schedule_line, signal
+from web.link_plan import (
+    direction_now,
+    duration_text,
+    link_replaces_states,
+    plan_send,
+    run_time_s,
+    schedule_line,
+    signal,
+)
+from web.telemetry_health import TelemetryHealth
 
 NOW = 1_800_000_000.0
 
@@ -262,3 +271,38 @@ def test_a_thinned_downlink_is_not_counted_as_lost(console: ConsoleApp, link: Se
     assert 0.2 < health.every_s < 5.0
     assert health.lost == lost_before
     assert f"states every {health.every_s:.1f} s" in console.status.inputs().link.text
+
+
+def test_a_gap_on_a_link_that_replaces_states_is_not_called_a_loss() -> None:
+    health = TelemetryHealth()
+    health.on_transport(True, "connected")
+    health.on_state(10, NOW, NOW)
+    health.on_state(40, NOW + 0.6, NOW + 0.6, link_replaces=True)  # 29 replaced on a narrow link
+    health.on_state(45, NOW + 0.7, NOW + 0.7)  # 4 lost on a plain one
+    assert (health.lost, health.replaced) == (4, 29)
+    health.on_state(60, NOW + 1.0, NOW + 1.0, skipped=14, every_s=0.3)  # the robot left out 14
+    assert (health.lost, health.replaced) == (4, 29)
+    text = health.line(0.0, NOW + 1.1).text
+    assert "(4 lost in all, 29 replaced by the link)" in text and "states every 0.3 s" in text
+    # A thinned socket is silent only past its interval: 1.2 s after the last state is not silent.
+    assert "telemetry flowing" in health.line(0.0, NOW + 2.2).text
+    assert "no telemetry for" in health.line(0.0, NOW + 2.4).text
+    assert link_replaces_states({"downlink_bytes_per_s": 2000.0})
+    assert link_replaces_states({"schedule": {"contacts": [{"start": 0.0, "end": 1.0}], "mode": "store"}})
+    assert not link_replaces_states({"schedule": {"contacts": [{"start": 0.0, "end": 1.0}], "mode": "drop"}})
+    assert not link_replaces_states({"blackouts": [{"start": 1.0, "duration": 1.0, "mode": "hold"}]})
+
+
+def test_silence_through_a_loss_of_signal_is_said_as_such_not_as_losses() -> None:
+    health = TelemetryHealth()
+    health.on_transport(True, "connected")
+    health.on_state(1, NOW, NOW)
+    health.on_state(2, NOW + 0.02, NOW + 0.02)  # the robot's period, measured: 20 ms
+    assert health.line(0.0, NOW + 9.0, out_of_contact=True).text.endswith(
+        "no telemetry for 9.0 s: the link is out of contact"
+    )
+    assert "(~450 messages lost)" in health.line(0.0, NOW + 9.0).text
+    closed = schedule_line(
+        outlook(up_open=False, down_open=False, up_change_in=30.0, down_change_in=30.0), NOW, None
+    )
+    assert closed.endswith("downlink closed")

@@ -121,7 +121,8 @@ def schedule_line(outlook: dict[str, Any], now: float, state_every_s: float | No
         head += f" · uplink closed: {up.held_messages} held for its next contact"
     delay = f"one way {down.one_way_s:.3f} s, {trend_text(down.trend_s_per_s)}"
     states = f", states every {state_every_s:.1f} s" if state_every_s else ""
-    return f"{head} · {delay} · downlink {rate_text(down.rate_bytes_per_s)}{states}"
+    rate = rate_text(down.rate_bytes_per_s) if down.in_contact else "closed"
+    return f"{head} · {delay} · downlink {rate}{states}"
 
 
 def has_schedule(profile: dict[str, Any] | None) -> bool:
@@ -133,6 +134,21 @@ def has_schedule(profile: dict[str, Any] | None) -> bool:
         or profile.get("blackouts")
         or profile.get("uplink_bytes_per_s")
         or profile.get("downlink_bytes_per_s")
+    )
+
+
+def link_replaces_states(profile: dict[str, Any] | None) -> bool:
+    """Does the link keep only the newest state while its downlink is busy or closed (a rate, a
+    contact window's rate, or a store-and-forward schedule: latency/delay_line.py)? Then a gap
+    in the states' numbers is states replaced, not lost."""
+    if profile is None:
+        return False
+    schedule = profile.get("schedule") or {}
+    contacts = schedule.get("contacts") or []
+    return bool(
+        profile.get("downlink_bytes_per_s")
+        or (contacts and schedule.get("mode", "store") == "store")
+        or any(c.get("rate_bytes_per_s") for c in contacts)
     )
 
 

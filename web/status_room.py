@@ -64,7 +64,7 @@ class StatusRoom:
             state,
             arrived,
             self._link.link_up,
-            self._link.health.line(rtt, time.time()),
+            self._link.health.line(rtt, now, out_of_contact=lost_since is not None),
             rtt,
             command,
             self._log.restart_note,

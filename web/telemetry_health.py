@@ -20,6 +20,7 @@ PERIOD_SMOOTHING = 0.1  # weight of each new period in its running mean
 class Gap:
     lost: int  # messages, from the sequence numbers around it
     ended_at: float  # [s] Unix time the message after it arrived
+    replaced: bool = False  # on a link that replaces waiting states by newer ones: not lost
 
 
 @dataclass(frozen=True)
@@ -40,17 +41,26 @@ class TelemetryHealth:
         self.lost = 0  # messages lost since this console started
         self.last_gap: Gap | None = None
         self.every_s: float | None = None  # [s] the robot's interval on a thinned socket
+        self.replaced = 0  # states the link replaced by newer ones (not lost)
 
     def on_transport(self, up: bool, text: str) -> None:
         with self._lock:
             self._transport_up, self._transport_text = up, text
 
     def on_state(
-        self, seq: int, sent_at: float, arrived: float, skipped: int = 0, every_s: float | None = None
+        self,
+        seq: int,
+        sent_at: float,
+        arrived: float,
+        skipped: int = 0,
+        every_s: float | None = None,
+        link_replaces: bool = False,
     ) -> int:
         """A state arrived; returns how many the link lost just before it. `skipped`: states the
         robot left out before it on this socket (a narrow downlink's thinning, not a loss);
-        `every_s`: its interval between states then (None: every state is sent)."""
+        `every_s`: its interval between states then (None: every state is sent);
+        `link_replaces`: the link holds only the newest state while its downlink is busy or
+        closed, so a gap is states replaced, not lost (counted apart)."""
         with self._lock:
             lost = 0
             self.every_s = every_s
@@ -64,8 +74,11 @@ class TelemetryHealth:
                         else self.period_s + PERIOD_SMOOTHING * (period - self.period_s)
                     )
             if lost > 0:
-                self.lost += lost
-                self.last_gap = Gap(lost, arrived)
+                if link_replaces:
+                    self.replaced += lost
+                else:
+                    self.lost += lost
+                self.last_gap = Gap(lost, arrived, link_replaces)
             # A lower seq is a restarted robot counting again: nothing lost, a new origin.
             self._seq, self._sent_at, self._arrived = seq, sent_at, arrived
             return lost
@@ -75,11 +88,13 @@ class TelemetryHealth:
         with self._lock:
             return None if self._arrived is None else now - self._arrived
 
-    def line(self, rtt_s: float, now: float) -> LinkLine:
-        """The link's line of the status bar."""
+    def line(self, rtt_s: float, now: float, out_of_contact: bool = False) -> LinkLine:
+        """The link's line of the status bar; `out_of_contact`: the link's schedule has the
+        downlink closed now, so silence is expected and nothing is counted lost."""
         with self._lock:
             up, text, arrived = self._transport_up, self._transport_text, self._arrived
             period, gap, lost, every_s = self.period_s, self.last_gap, self.lost, self.every_s
+            replaced = self.replaced
         head = f"link round trip {rtt_s:g} s · "
         if not up:
             silent = "" if arrived is None else f" (nothing for {now - arrived:.1f} s)"
@@ -88,6 +103,8 @@ class TelemetryHealth:
             return LinkLine("stale", head + "connected; no telemetry yet")
         silent_s = now - arrived
         # On a thinned socket the next state is due every_s after the last: silent only past that.
+        if out_of_contact:
+            return LinkLine("stale", head + f"no telemetry for {silent_s:.1f} s: the link is out of contact")
         if silent_s > SILENT_AFTER_S + (every_s or 0.0):
             sent_every = every_s or period
             missing = f" (~{round(silent_s / sent_every)} messages lost)" if sent_every else ""
@@ -96,11 +113,11 @@ class TelemetryHealth:
                 head + f"no telemetry for {silent_s:.1f} s{missing}; the link is connected but silent",
             )
         recent = gap is not None and now - gap.ended_at <= SHOW_GAP_S
-        after = (
-            f" · {gap.lost} messages lost in a gap {now - gap.ended_at:.0f} s ago" if recent and gap else ""
-        )
+        what = "states replaced by newer ones on the link" if gap and gap.replaced else "messages lost"
+        after = f" · {gap.lost} {what} in a gap {now - gap.ended_at:.0f} s ago" if recent and gap else ""
+        in_all = f"{lost} lost in all" + (f", {replaced} replaced by the link" if replaced else "")
         thinned = f" · states every {every_s:.1f} s (the downlink's rate)" if every_s else ""
         return LinkLine(
             "late" if recent else "fresh",
-            head + f"connected · telemetry flowing ({lost} lost in all){thinned}{after}",
+            head + f"connected · telemetry flowing ({in_all}){thinned}{after}",
         )
