@@ -12,9 +12,10 @@ A message's way through the link, in order (one rule for the proxy and the simul
         asks for it), a long delay never lets a later message overtake, nothing leaves early.
 
 A state (a message with a `replace_key`) that would have to wait for the wire (behind others, or
-for a contact) is parked instead, one per key, the latest replacing the one before ("superseded"); it takes the wire when the wire
-is free. So a narrow or closed downlink carries the newest state, never an ever-growing queue of
-old ones, while events wait their turn and are never dropped for states. The caller passes
+for a contact) is parked instead, one per key, the latest replacing the one before
+("superseded"); it takes the wire when the wire is free. So a narrow or closed downlink carries
+the newest state, never an ever-growing queue of old ones, while events wait their turn and are
+never dropped for states. The caller passes
 `now` in; real-time and simulated drivers both use this class unchanged.
 """
 

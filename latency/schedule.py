@@ -15,11 +15,11 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from latency.fields import MAX_DELAY_S, Seconds, StrictModel
+from ptwl.guard.link_notice import MAX_RATE
 
 MAX_PLAN_S = 30 * 86400.0  # [s] a plan spans at most 30 days
 MAX_CONTACTS = 10_000
 MAX_DELAY_POINTS = 10_000
-MAX_RATE = 1e12  # [bytes/s]
 MAX_SLOT_TRIES = 64  # windows tried for one that a message fits
 
 PlanTime = Annotated[float, Field(ge=0.0, le=MAX_PLAN_S)]

@@ -15,7 +15,12 @@ from latency.delay_line import Dropped, Entry, Parked
 from latency.named import named_profile
 from latency.plan_file import PlanFileError, read_schedule
 from latency.profile import LinkProfile
+from latency.record import McapRecorder
 from latency.schedule import Plan
+from ptwl.recording import topics
+from ptwl.recording.reader import read
+from ptwl.recording.report import report_text
+from ptwl.recording.writer import SessionRecorder
 
 
 def gap_profile(mode: str = "store", **extra: Any) -> LinkProfile:
@@ -330,3 +335,33 @@ def test_overlapping_windows_of_a_direction_merge() -> None:
     assert plan.next_close(1.0) == 30.0
     assert [plan.window_at(t) is not None for t in (9.0, 19.0, 29.0, 30.0)] == [True, True, True, False]
     assert list(itertools.islice((plan.next_open(t) for t in (30.0, 31.0)), 2)) == [None, None]
+
+
+def test_the_links_mcap_record_says_why_each_message_waited_and_the_report_sums_it(tmp_path: Path) -> None:
+    """Recording (issue point 5): each message's scheduled and actual release and its waits, read
+    back from the MCAP file; `ptwl report` sums them per reason."""
+    path = tmp_path / "link.mcap"
+    sim = SimulatedLink(gap_profile(downlink_bytes_per_s=1000.0))
+    sim.link.recorder = McapRecorder(SessionRecorder(path, {"source": "test"}), lambda t: int(t * 1e9))
+    sim.send(5.0, "downlink", size=500)  # 0.5 s on the wire, 0.5 s delay
+    sim.send(12.0, "downlink", size=100)  # in the gap: waits 8 s for the contact
+    sim.send(12.5, "downlink", size=100, kind="state", replace_key="c")
+    sim.send(13.0, "downlink", size=100, kind="state", replace_key="c")  # supersedes the one before
+    sim.advance_to(40.0)
+    sim.link.recorder.close()
+    records = [m.value for m in read(path).on(topics.LINK.name)]
+    released = [r for r in records if r["release"] is not None]
+    assert [r["why"] for r in released] == [
+        {"serialization": pytest.approx(0.5), "delay": pytest.approx(0.5)},
+        {"contact_gap": pytest.approx(8.0), "serialization": pytest.approx(0.1), "delay": pytest.approx(0.5)},
+        # Parked behind the message the gap held (it had the wire from 20.0 to 20.1): a queue.
+        {"queue": pytest.approx(7.1), "serialization": pytest.approx(0.1), "delay": pytest.approx(0.5)},
+    ]
+    assert [r["scheduled_release"] for r in released] == pytest.approx([6.0, 20.6, 21.2])
+    assert [r["release"] for r in released] == [r["scheduled_release"] for r in released]
+    assert [r["drop_reason"] for r in records if r["release"] is None] == ["superseded"]
+    text = report_text(path)
+    assert "downlink: 3 released, dropped: superseded 1" in text
+    assert "waited for contact_gap: 1 messages, mean 8.000 s, max 8.000 s" in text
+    assert "waited for queue: 1 messages, mean 7.100 s, max 7.100 s" in text
+    assert "released late by mean 0.00 ms, max 0.00 ms" in text

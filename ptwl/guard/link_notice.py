@@ -8,9 +8,8 @@ import json
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from latency.schedule import MAX_RATE
-
 MAX_NOTICE_CHARS = 256
+MAX_RATE = 1e12  # [bytes/s] the most a link's rate may be (latency/schedule.py's bound too)
 
 
 class LinkNotice(BaseModel):

@@ -15,13 +15,14 @@ from pathlib import Path
 from typing import Any
 
 from ptwl.recording import topics
+from ptwl.recording.link_summary import LinkSummary
 from ptwl.recording.reader import Recorded, Recording, RecordingError, Scan
 from robot_sim.behaviors import BehaviorReport
 from robot_sim.finite import report_from_json
 from robot_sim.policies.paper_tables import beside_paper, text_table
 from robot_sim.policies.run import paper_rows, report_metrics
 
-REPORTED = (topics.GEOMETRY.name, topics.STEPS.name, topics.TASK.name)  # all a report decodes
+REPORTED = (topics.GEOMETRY.name, topics.STEPS.name, topics.TASK.name, topics.LINK.name)  # all it decodes
 # A trial's steps are held until it ends; our state machines take tens, a ground operator a few
 # hundred. A file with more is refused rather than held (each decoded step is ~2 KB).
 MAX_TRIAL_STEPS = 10_000
@@ -61,16 +62,20 @@ class Summary:
     problem: str
     count: int  # messages in the file, every topic
     trials: list[RecordedTrial]
+    link: LinkSummary = field(default_factory=LinkSummary)  # a link's record in it, if any
 
 
 def summarize(source: Path | Recording) -> Summary:
     """A file, streamed; or a recording already read (tests)."""
+    link = LinkSummary()
     if isinstance(source, Recording):
-        found = _named(source.path, lambda: trials(source.messages))
-        return Summary(source.path, source.metadata, source.complete, source.problem, source.count, found)
+        found = _named(source.path, lambda: trials(link.tally(source.messages)))
+        return Summary(
+            source.path, source.metadata, source.complete, source.problem, source.count, found, link
+        )
     scan = Scan(source, REPORTED)
-    found = _named(source, lambda: trials(scan))
-    return Summary(source, scan.metadata, scan.complete, scan.problem, scan.count, found)
+    found = _named(source, lambda: trials(link.tally(scan)))
+    return Summary(source, scan.metadata, scan.complete, scan.problem, scan.count, found, link)
 
 
 def trials(messages: Iterable[Recorded] | Recording) -> list[RecordedTrial]:
@@ -115,8 +120,9 @@ def report_text(source: Path | Recording) -> str:
     lines = [f"{summary.path}: {source_name}, {summary.count} messages"]
     if not summary.complete:
         lines.append(f"  cut short ({summary.problem or 'no end record'}): read up to the last whole chunk")
+    lines += summary.link.lines()
     if not found:
-        lines.append("  no behavior ran: nothing to report")
+        lines.append("  no behavior ran: no trials to report")
         return "\n".join(lines) + "\n"
     columns = [
         dict(paper_rows([t.metrics()], [t.success]), Success="yes" if t.success else "no") for t in found
