@@ -1,20 +1,33 @@
 """`ptwl sweep`: a task at several round trips, ground-operated vs onboard, in virtual time.
 
 ptwl sweep --task lid --rtt 0,1,2,5,10 --trials 20 --operator ground,onboard --out runs/lid
+ptwl sweep --task lid --profile lunar_far_side_relay --trials 20 --out runs/lid-relay
+ptwl sweep --task lid --schedule pass.ionrc --ground-node 1 --robot-node 2 --out runs/lid-ion
+(no --rtt with a schedule whose delay points, an ION plan's ranges, set the delay)
 """
 
 import argparse
 import os
 import sys
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from ptwl_config import PtwlError
 
 from latency.named import named_profiles
+from latency.plan_file import PlanFileError
 from latency.profile import MAX_DELAY_S
-from ptwl.experiments.sweep.spec import BACKENDS, OPERATORS, SweepSettings
+from ptwl.experiments.sweep.spec import (
+    BACKENDS,
+    DEFAULT_RTTS_S,
+    OPERATORS,
+    RttSetBySchedule,
+    SweepSettings,
+    default_rtts_s,
+    link_schedule,
+)
 from robot_sim.machines.library import builtin_machines
 from robot_sim.machines.spec import AUTONOMY_LEVELS
 from robot_sim.params import MAX_AGE_S
@@ -84,10 +97,31 @@ def _machine_task(args: argparse.Namespace) -> str:
     return task
 
 
-def settings_from(args: argparse.Namespace, argv: list[str]) -> SweepSettings:
+def settings_from(
+    args: argparse.Namespace, argv: list[str], error: Callable[[str], NoReturn]
+) -> SweepSettings:
+    """The sweep's settings; an argument they refuse (a bad schedule file, --rtt with a
+    schedule whose delay points set the delay) goes to `error` (argparse's: usage, exit 2)."""
+    task = _machine_task(args)
+    schedule = str(Path(args.schedule).resolve()) if args.schedule else None
+    try:
+        # Read here, once, so a bad file is one line naming its line before any trial runs.
+        rtts_s = args.rtt or default_rtts_s(
+            link_schedule(args.profile, schedule, args.ground_node, args.robot_node)
+        )
+        return _settings(args, argv, task, rtts_s, schedule)
+    except PlanFileError as err:
+        error(f"argument --schedule: {err}")
+    except RttSetBySchedule as err:
+        error(str(err))
+
+
+def _settings(
+    args: argparse.Namespace, argv: list[str], task: str, rtts_s: list[float], schedule: str | None
+) -> SweepSettings:
     return SweepSettings(
-        task=_machine_task(args),
-        rtts_s=args.rtt,
+        task=task,
+        rtts_s=rtts_s,
         trials=args.trials,
         operators=args.operator,
         out=args.out,
@@ -103,17 +137,20 @@ def settings_from(args: argparse.Namespace, argv: list[str]) -> SweepSettings:
         record=args.record,
         autonomies=args.autonomy or [],
         machine=str(Path(args.machine).resolve()) if args.machine else None,
+        schedule=schedule,
+        ground_node=args.ground_node,
+        robot_node=args.robot_node,
         argv=argv,
     )
 
 
-def cmd_sweep(args: argparse.Namespace) -> int:
+def cmd_sweep(args: argparse.Namespace, error: Callable[[str], NoReturn]) -> int:
     # Imported here: matplotlib and the sweep machinery would add ~0.8 s to every `ptwl` start.
     from ptwl.experiments.sweep.backends import BackendMissing
     from ptwl.experiments.sweep.plots import findings
     from ptwl.experiments.sweep.sweep import run_sweep
 
-    settings = settings_from(args, sys.argv[1:])
+    settings = settings_from(args, sys.argv[1:], error)
     if args.realtime:
         return realtime(settings)
     try:
@@ -151,7 +188,13 @@ def add_sweep_parser(sub: "argparse._SubParsersAction[argparse.ArgumentParser]")
         help="the onboard machine at each of these levels (off,low,high,full): a transition whose level is "
         "not below it waits for the ground operator, who confirms after a think time across the link",
     )
-    sweep.add_argument("--rtt", type=_floats, default=[0.0, 1.0, 2.0, 5.0, 10.0], help="[s] e.g. 0,1,2,5,10")
+    sweep.add_argument(
+        "--rtt",
+        type=_floats,
+        default=None,
+        help=f"[s] e.g. {','.join(f'{r:g}' for r in DEFAULT_RTTS_S)} (the default); refused with a schedule "
+        "whose delay points set the delay (its RTT is then twice their mean one-way delay)",
+    )
     sweep.add_argument("--trials", type=_ranged(int, 1, 100_000), default=10, help="trials per grid point")
     sweep.add_argument("--operator", type=_operators, default=list(OPERATORS), help="ground,onboard")
     sweep.add_argument("--out", required=True, help="directory for trials.csv, summary, report (resumable)")
@@ -162,7 +205,29 @@ def add_sweep_parser(sub: "argparse._SubParsersAction[argparse.ArgumentParser]")
     )
     sweep.add_argument("--seed", type=_ranged(int, 0, 2**31 - 1), default=0, help="first scene seed")
     sweep.add_argument(
-        "--profile", choices=sorted(named_profiles()), default=None, help="a named link whose blackouts apply"
+        "--profile",
+        choices=sorted(named_profiles()),
+        default=None,
+        help="a named link whose blackouts, schedule, rates, jitter and loss apply (the RTT replaces its "
+        "delays, unless its schedule has delay points); each trial starts at a seeded point of its schedule",
+    )
+    sweep.add_argument(
+        "--schedule",
+        metavar="FILE",
+        default=None,
+        help="a schedule file (.toml: a Schedule table; else an ION contact plan) replacing the profile's",
+    )
+    sweep.add_argument(
+        "--ground-node",
+        type=_ranged(int, 1, 2**63 - 1),
+        default=1,
+        help="an ION plan's ground node (uplink from)",
+    )
+    sweep.add_argument(
+        "--robot-node",
+        type=_ranged(int, 1, 2**63 - 1),
+        default=2,
+        help="an ION plan's robot node (downlink from)",
     )
     sweep.add_argument(
         "--max-age",
@@ -184,7 +249,7 @@ def add_sweep_parser(sub: "argparse._SubParsersAction[argparse.ArgumentParser]")
         action="store_true",
         help="one grid point through the real `ptwl serve` and `ptwl proxy`, against virtual time",
     )
-    sweep.set_defaults(func=cmd_sweep)
+    sweep.set_defaults(func=partial(cmd_sweep, error=sweep.error))
 
 
 def realtime(settings: SweepSettings) -> int:

@@ -12,12 +12,14 @@ import matplotlib.pyplot as plt
 from ptwl.experiments.sweep.summary import (
     Fit,
     LevelAt,
+    LosSplit,
     SweetSpot,
     arm,
     break_even_s,
     fits,
     groups,
     interval,
+    los_splits,
     sweet_spots,
 )
 
@@ -141,6 +143,42 @@ def sweet_spot_lines(spots: list[SweetSpot]) -> list[str]:
     return lines
 
 
+def _or_dash(value: float | None, text: str) -> str:
+    return "-" if value is None else text.format(value)
+
+
+def los_lines(splits: list[LosSplit]) -> list[str]:
+    """The loss-of-signal table (markdown): per arm and RTT, the trials with a loss of signal
+    inside them and those without, their success and median times."""
+    lines = [
+        "| operator | RTT [s] | LOS in trial | trials | success | task time median [s] "
+        "| operator time median [s] |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for s in splits:
+        success = None if s.success_rate is None else 100.0 * s.success_rate
+        lines.append(
+            f"| {s.arm} | {s.rtt_s:g} | {'yes' if s.los_in_trial else 'no'} | {s.trials} | "
+            f"{_or_dash(success, '{:.0f} %')} | {_or_dash(s.task_time_median_s, '{:.2f}')} | "
+            f"{_or_dash(s.operator_time_median_s, '{:.2f}')} |"
+        )
+    return lines
+
+
+def los_section(rows: list[dict[str, Any]]) -> list[str]:
+    return [
+        "## Loss of signal",
+        "",
+        "Each trial starts at a seeded point of the link's schedule (`plan_offset_s`: the same for a seed "
+        "at every RTT and for every operator); a trial has a loss of signal in it if either direction was "
+        "closed (a contact gap or a blackout) at any time before the operator knew the outcome "
+        "(`los_s`, `los_in_trial`).",
+        "",
+        *los_lines(los_splits(rows)),
+        "",
+    ]
+
+
 FLAT_S = 0.1  # [s] a task time that changes less than this over the RTTs measured is flat
 
 
@@ -186,7 +224,11 @@ def findings(rows: list[dict[str, Any]]) -> list[str]:
     return lines
 
 
-def write_report(directory: Path, rows: list[dict[str, Any]], table: list[dict[str, Any]]) -> None:
+def write_report(
+    directory: Path, rows: list[dict[str, Any]], table: list[dict[str, Any]], link_closes: bool = False
+) -> None:
+    """`link_closes`: the sweep's link has contact windows or blackouts (adds the loss-of-signal
+    table)."""
     line = fits(rows)
     _interval_plot(
         rows, "task_time_s", "task time on the robot [s]", directory / "task_time_vs_rtt.png", line
@@ -223,6 +265,7 @@ def write_report(directory: Path, rows: list[dict[str, Any]], table: list[dict[s
         *findings(rows),
         "",
         *autonomy,
+        *(los_section(rows) if link_closes else []),
         "## Task time against round trip",
         "",
         "![task time vs RTT](task_time_vs_rtt.png)",

@@ -155,9 +155,15 @@ def link_delays(settings: SweepSettings) -> list[str]:
     the settings name more than one point or a link that is not plain."""
     if len(settings.rtts_s) != 1 or len(settings.operators) != 1:
         raise NotOneGridPoint("--realtime runs one grid point: give one --rtt and one --operator")
-    if settings.jitter_s or settings.loss or settings.profile or settings.max_age_s is not None:
+    if (
+        settings.jitter_s
+        or settings.loss
+        or settings.profile
+        or settings.schedule
+        or settings.max_age_s is not None
+    ):
         raise NotOneGridPoint(
-            "--realtime runs a plain link: leave out --jitter, --loss, --profile and --max-age"
+            "--realtime runs a plain link: leave out --jitter, --loss, --profile, --schedule and --max-age"
         )
     half = f"{settings.rtts_s[0] / 2.0:g}"
     return ["--uplink", half, "--downlink", half]

@@ -115,6 +115,40 @@ def summary_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 @dataclass(frozen=True)
+class LosSplit:
+    """The trials of one arm and RTT with a loss of signal inside them (or without): how many,
+    how many succeeded, and their median times (None: no such trial)."""
+
+    arm: str
+    rtt_s: float
+    los_in_trial: bool
+    trials: int
+    success_rate: float | None
+    task_time_median_s: float | None
+    operator_time_median_s: float | None
+
+
+def los_splits(rows: list[dict[str, Any]]) -> list[LosSplit]:
+    """Per (arm, RTT), in grid order: the trials without a loss of signal, then those with."""
+    out = []
+    for (name, rtt), mine in groups(rows).items():
+        for los in (False, True):
+            part = [r for r in mine if r["los_in_trial"] == los]
+            out.append(
+                LosSplit(
+                    name,
+                    rtt,
+                    los,
+                    len(part),
+                    sum(r["success"] for r in part) / len(part) if part else None,
+                    interval([r["task_time_s"] for r in part])[0] if part else None,
+                    interval([r["operator_time_s"] for r in part])[0] if part else None,
+                )
+            )
+    return out
+
+
+@dataclass(frozen=True)
 class LevelAt:
     """One autonomy level at one RTT: success, the median task time, decisions waited."""
 

@@ -5,8 +5,8 @@ sweep.json).
 Re-running into the same directory runs only the trials missing from trials.csv; Ctrl-C keeps
 every trial that finished (whole rows) and leaves sweep.json saying how many of the grid are
 done. Settings that change what a trial is (task, jitter, loss, think time, seed, profile,
-max age)
-must match the directory's; RTTs, operators and the trial count may grow.
+max age, machine, schedule file and its nodes) must match the directory's; RTTs, operators and
+the trial count may grow.
 """
 
 import importlib.metadata
@@ -26,13 +26,25 @@ from tqdm import tqdm
 
 from ptwl.experiments.sweep import backends
 from ptwl.experiments.sweep.plots import write_report
-from ptwl.experiments.sweep.spec import SweepSettings, TrialSpec
+from ptwl.experiments.sweep.spec import SweepSettings, TrialSpec, can_lose_signal
 from ptwl.experiments.sweep.summary import write_summary
 from ptwl.experiments.sweep.table import RowWriter, read_rows, row_key, write_sorted
 
 # What a trial is: a directory's trials are only reusable under the same values.
 RECORDINGS = "recordings"  # --record: one MCAP per trial, named by TrialSpec.file_stem()
-TRIAL_SETTINGS = ("task", "jitter_s", "loss", "think_s", "seed", "profile", "max_age_s", "machine")
+TRIAL_SETTINGS = (
+    "task",
+    "jitter_s",
+    "loss",
+    "think_s",
+    "seed",
+    "profile",
+    "max_age_s",
+    "machine",
+    "schedule",
+    "ground_node",
+    "robot_node",
+)
 
 
 class Progress:
@@ -189,5 +201,5 @@ def run_sweep(settings: SweepSettings, stream: TextIO = sys.stderr) -> list[dict
     wanted = set(order)
     mine = [r for r in write_sorted(csv_path, read_rows(csv_path), order) if row_key(r) in wanted]
     table = write_summary(out, mine)
-    write_report(out, mine, table)
+    write_report(out, mine, table, can_lose_signal(specs[0].link_profile()))
     return mine

@@ -34,14 +34,30 @@ COLUMNS: list[tuple[str, Callable[[str], Any], str]] = [
     ("task", str, "the task (its scene and state machine)"),
     ("operator", str, "ground (move-and-wait, one behavior per round trip) or onboard (one state machine)"),
     ("autonomy", _optional_str, "onboard: the machine's autonomy level (off, low, high, full; empty: full)"),
-    ("rtt_s", float, "[s] round trip, half each way"),
+    (
+        "rtt_s",
+        float,
+        "[s] round trip, half each way; when the schedule has delay points they set the delay, and this is "
+        "twice their mean one-way delay over their span",
+    ),
     ("jitter_s", float, "[s] uniform +- on each message's delay"),
     ("loss", float, "chance an event (WebSocket message) is lost"),
     ("seed", int, "the scene's misalignments and every draw of the trial"),
     ("think_s", float, "[s] the operator's mean think time between commands"),
-    ("profile", _optional_str, "named link profile whose blackouts applied"),
+    (
+        "profile",
+        _optional_str,
+        "named link profile whose blackouts, schedule, rates, jitter and loss applied (not its delays)",
+    ),
     ("max_age_s", _optional_float, "[s] every command's max_age (empty: commands never expire)"),
     ("machine", _optional_str, "the machine file run instead of the task's built-in one (empty: built-in)"),
+    ("schedule", _optional_str, "the schedule file (TOML or ION plan) replacing the profile's (empty: none)"),
+    (
+        "plan_offset_s",
+        float,
+        "[s] how far into its schedule and blackouts the link was at the trial's start: seeded, uniform "
+        "over the period (else up to the last contact's end), whole ms; 0 with neither",
+    ),
     ("success", _bool, "the scene's predicate when the operator learned the outcome"),
     ("progress", float, "the predicate's progress value then (depth, angle, error: its unit)"),
     ("end", str, "how the machine ended: completed, failed, aborted, fault, timed_out; expired: gave up"),
@@ -72,6 +88,8 @@ COLUMNS: list[tuple[str, Callable[[str], Any], str]] = [
     ("ptwl_wrench_breach", int, "PTWLs that ended wrench_breach"),
     ("lost_messages", int, "messages the link lost (loss, drop blackouts)"),
     ("blackout_s", float, "[s] of the trial inside blackout windows"),
+    ("los_s", float, "[s] of the trial with either direction closed (a contact gap or a blackout)"),
+    ("los_in_trial", _bool, "a loss of signal fell inside the trial (los_s > 0)"),
 ]
 NAMES = [name for name, _, _ in COLUMNS]
 

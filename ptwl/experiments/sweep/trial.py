@@ -12,6 +12,7 @@ The ground's own instants are kept to the tick (1 ms). Every draw (scene, think 
 loss) comes from the trial's settings, so a trial gives the same row on any worker.
 """
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
@@ -19,12 +20,13 @@ from pathlib import Path
 from typing import Any
 
 from latency.clock import SimulatedLink
-from latency.delay_line import Dropped
+from latency.delay_line import DIRECTIONS, DirectionModel, Dropped
+from latency.outlook import is_open, next_change
 from latency.profile import LinkProfile
 from ptwl.experiments.sweep.operators import Operator, operator_for
 from ptwl.experiments.sweep.recorder import TrialRecorder
 from ptwl.experiments.sweep.robot import VIRTUAL_EPOCH_S, Event, Reply, Request, VirtualRobot
-from ptwl.experiments.sweep.spec import TrialSpec
+from ptwl.experiments.sweep.spec import TrialSpec, plan_span_s
 from robot_sim.policies.run import trial_metrics
 
 MAX_TRIAL_S = 3600.0  # [s] of virtual time: a trial still going has lost its way
@@ -32,16 +34,41 @@ REQUEST_BYTES = 400  # a command's JSON, about
 EVENT_BYTES = 1500  # a command event or status with its report, about
 
 
-def blackout_s(profile: LinkProfile, until_s: float) -> float:
-    """[s] of [0, until_s] inside the profile's blackout windows (timed from t = 0)."""
+def max_trial_s(spec: TrialSpec) -> float:
+    """[s] of virtual time a trial may run: MAX_TRIAL_S, and one whole cycle of its schedule on
+    top (a trial may start as a long gap begins: the lunar relay's lasts 95 min)."""
+    return MAX_TRIAL_S + plan_span_s(spec.link_schedule())
+
+
+def blackout_s(profile: LinkProfile, until_s: float, plan_offset_s: float = 0.0) -> float:
+    """[s] of the trial's [0, until_s] inside the profile's blackout windows (timed from the
+    plan's start, `plan_offset_s` before the trial's)."""
+    lo, hi = plan_offset_s, plan_offset_s + until_s
     total = 0.0
     for window in profile.blackouts:
         start = window.start
-        while start < until_s:
-            total += max(0.0, min(start + window.duration, until_s) - start)
+        if window.period is not None and start < lo:  # skip the repeats that ended before the trial
+            start += math.floor((lo - start) / window.period) * window.period
+        while start < hi:
+            total += max(0.0, min(start + window.duration, hi) - max(start, lo))
             if window.period is None:
                 break
             start += window.period
+    return total
+
+
+def los_s(profile: LinkProfile, until_s: float, plan_offset_s: float = 0.0) -> float:
+    """[s] of the trial's [0, until_s] in which either direction was closed (a contact gap or a
+    blackout): the closed stretches between the link's edges, walked edge to edge, exact."""
+    models = [DirectionModel(profile, d, 1, -plan_offset_s) for d in DIRECTIONS]
+    t, total = 0.0, 0.0
+    while t < until_s:
+        # Either direction's next edge; none ahead (next_change: None) means no change to come.
+        edges = [e for m in models if (e := next_change(m, t)) is not None]
+        until = min([*edges, until_s])
+        if not all(is_open(m, t) for m in models):
+            total += until - t
+        t = until
     return total
 
 
@@ -56,28 +83,29 @@ class Trial:
     lost: int  # messages the link lost
 
 
-def quiet_until(link: SimulatedLink, operator: Operator) -> float:
+def quiet_until(link: SimulatedLink, operator: Operator, limit_s: float = MAX_TRIAL_S) -> float:
     """[s] the next instant anything but the robot acts: a message due out of the link, or the
     operator's own deadline; until then the loop below would only tick the robot. Once the
     operator has finished, the loop ends after its tick."""
     if operator.finished:
         return 0.0
     instants = [t for t in (link.next_release(), operator.wake_at) if t is not None]
-    return min(instants, default=MAX_TRIAL_S)
+    return min(instants, default=limit_s)
 
 
 def simulate(spec: TrialSpec, profile: LinkProfile | None = None, record: Path | None = None) -> Trial:
-    """Run the trial to its end (the operator knows the outcome) or MAX_TRIAL_S; `profile`
+    """Run the trial to its end (the operator knows the outcome) or max_trial_s; `profile`
     replaces the spec's link (tests give blackouts at chosen times); `record` an MCAP file to
     record it into."""
     robot = VirtualRobot(spec.task, spec.seed)
     sim = robot.sim
     profile = profile or spec.link_profile()
-    link = SimulatedLink(profile)
+    link = SimulatedLink(profile, plan_offset_s=spec.plan_offset_s)
     recorder = TrialRecorder(record, spec, robot, link) if record is not None else None
     operator = operator_for(spec, VIRTUAL_EPOCH_S)
     inbox: list[Request] = []
     lost = [0]
+    limit_s = max_trial_s(spec)
 
     def admit(direction: str, size: int, kind: str, deliver: Callable[[], object], lossy: bool) -> None:
         if isinstance(link.link.admit(direction, size, kind, deliver, lossy), Dropped):
@@ -95,7 +123,7 @@ def simulate(spec: TrialSpec, profile: LinkProfile | None = None, record: Path |
         admit("downlink", EVENT_BYTES, "ws" if lossy else "http", deliver, lossy)
 
     up(operator.begin(0.0, sim.state().port))
-    while not operator.finished and sim.time < MAX_TRIAL_S:
+    while not operator.finished and sim.time < limit_s:
         now = sim.time
         link.advance_to(now)
         while (wake := operator.wake_at) is not None and wake <= now:
@@ -107,7 +135,7 @@ def simulate(spec: TrialSpec, profile: LinkProfile | None = None, record: Path |
             done = robot.tick()
             recorder.observe()
         else:
-            done = robot.tick_until(quiet_until(link, operator))
+            done = robot.tick_until(quiet_until(link, operator, limit_s))
         if done is not None:
             link.advance_to(sim.time)
             down(done)
@@ -129,12 +157,15 @@ def row(trial: Trial) -> dict[str, Any]:
     verdict = sim.task()
     finished_at = operator.finished_at_s if operator.finished_at_s is not None else sim.time
     metrics = trial_metrics(figures.steps)
+    offset_s = spec.plan_offset_s
+    closed_s = los_s(trial.profile, finished_at, offset_s)
     return {
         **spec.as_dict(),
+        "plan_offset_s": offset_s,
         "success": verdict.success,
         "progress": verdict.progress,
         "end": operator.end or "timed_out",
-        "why": operator.why or f"no outcome after {MAX_TRIAL_S:g} s",
+        "why": operator.why or f"no outcome after {max_trial_s(spec):g} s",
         "task_time_s": last - first if first is not None and last is not None else 0.0,
         "operator_time_s": finished_at,
         "commands_sent": operator.commands_sent,
@@ -154,5 +185,7 @@ def row(trial: Trial) -> dict[str, Any]:
         "gripper": metrics["gripper"],
         **{f"ptwl_{exit_name}": count for exit_name, count in metrics["ptwl"].items()},
         "lost_messages": trial.lost,
-        "blackout_s": blackout_s(trial.profile, finished_at),
+        "blackout_s": blackout_s(trial.profile, finished_at, offset_s),
+        "los_s": closed_s,
+        "los_in_trial": closed_s > 0.0,
     }
