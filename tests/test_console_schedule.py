@@ -282,11 +282,17 @@ def test_a_gap_on_a_link_that_replaces_states_is_not_called_a_loss() -> None:
     assert (health.lost, health.replaced) == (4, 29)
     health.on_state(60, NOW + 1.0, NOW + 1.0, skipped=14, every_s=0.3)  # the robot left out 14
     assert (health.lost, health.replaced) == (4, 29)
-    text = health.line(0.0, NOW + 1.1).text
-    assert "(4 lost in all, 29 replaced by the link)" in text and "states every 0.3 s" in text
+    health.on_state(90, NOW + 1.5, NOW + 1.5, link_replaces=True)  # a replaced gap is not "late"
+    assert health.line(0.0, NOW + 1.6).level == "fresh"
+    health.on_state(95, NOW + 1.6, NOW + 1.6)
+    assert health.line(0.0, NOW + 1.7).level == "late"  # a lost one is
+    text = health.line(0.0, NOW + 1.7).text
+    assert "(8 lost in all, 58 replaced by the link)" in text
+    health.on_state(100, NOW + 2.0, NOW + 2.0, skipped=4, every_s=0.3)
+    assert "states every 0.3 s" in health.line(0.0, NOW + 2.1).text
     # A thinned socket is silent only past its interval: 1.2 s after the last state is not silent.
-    assert "telemetry flowing" in health.line(0.0, NOW + 2.2).text
-    assert "no telemetry for" in health.line(0.0, NOW + 2.4).text
+    assert "telemetry flowing" in health.line(0.0, NOW + 3.2).text
+    assert "no telemetry for" in health.line(0.0, NOW + 3.4).text
     assert link_replaces_states({"downlink_bytes_per_s": 2000.0})
     assert link_replaces_states({"schedule": {"contacts": [{"start": 0.0, "end": 1.0}], "mode": "store"}})
     assert not link_replaces_states({"schedule": {"contacts": [{"start": 0.0, "end": 1.0}], "mode": "drop"}})

@@ -118,6 +118,6 @@ class TelemetryHealth:
         in_all = f"{lost} lost in all" + (f", {replaced} replaced by the link" if replaced else "")
         thinned = f" · states every {every_s:.1f} s (the downlink's rate)" if every_s else ""
         return LinkLine(
-            "late" if recent else "fresh",
+            "late" if recent and gap and not gap.replaced else "fresh",  # replaced: nothing missing
             head + f"connected · telemetry flowing ({in_all}){thinned}{after}",
         )
