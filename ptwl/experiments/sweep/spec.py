@@ -8,6 +8,8 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
+from ptwl_config import PtwlError
+
 from latency.named import named_profile
 from latency.plan_file import read_schedule
 from latency.profile import LinkProfile
@@ -22,7 +24,7 @@ DEFAULT_RTTS_S = [0.0, 1.0, 2.0, 5.0, 10.0]
 OFFSET_TICKS_PER_S = 1000
 
 
-class RttSetBySchedule(ValueError):
+class RttSetBySchedule(PtwlError, ValueError):
     """RTTs asked for a link whose schedule's delay points set the delay."""
 
 
