@@ -32,7 +32,7 @@ from latency.schedule import Plan
 DIRECTIONS = ("uplink", "downlink")
 # Why a message waited, as its record says (in this order).
 WAITS = ("blackout", "queue", "contact_gap", "serialization", "delay", "order")
-DROP_REASONS = ("loss", "blackout", "contact_gap", "no_contact", "overflow", "superseded")
+DROP_REASONS = ("loss", "blackout", "contact_gap", "no_contact", "overflow", "superseded", "gone")
 
 
 @dataclass(slots=True)
@@ -127,6 +127,7 @@ class DelayLine:
         self._last_release = float("-inf")
         self._wire_free_at = float("-inf")  # [s] when the message on the wire has left it
         self._parked: dict[Hashable, Parked] = {}  # at most one state per key, oldest first
+        self._parked_bytes = 0
         self._seq = 0
         self.held_messages = 0
         self.held_bytes = 0
@@ -151,7 +152,8 @@ class DelayLine:
         `replace_key` that would wait for the wire) parked until the wire is free."""
         self._admit_parked(now)
         profile = model.profile
-        if self.held_messages >= profile.max_held_messages or self.held_bytes + size > profile.max_held_bytes:
+        held, held_bytes = self.held_messages + len(self._parked), self.held_bytes + self._parked_bytes
+        if held >= profile.max_held_messages or held_bytes + size > profile.max_held_bytes:
             return self._drop(kind, size, now, model.version, "overflow")
         ready = model.blackout_end(now)
         if ready is None:
@@ -168,10 +170,11 @@ class DelayLine:
         if replace_key is not None and opens > ready:
             reason = "contact_gap" if opens > wire_at else "queue"
             parked = Parked(self.direction, kind, size, now, model, deliver, lossy, ready, reason)
-            before = self._parked.pop(replace_key, None)
-            if before is not None:
+            if replace_key in self._parked:
+                before = self._unpark(replace_key)
                 self._drop(before.kind, before.size, before.arrival, before.model.version, "superseded")
             self._parked[replace_key] = parked
+            self._parked_bytes += size
             return parked
         waits = {"blackout": ready - now, "queue": wire_at - ready, "contact_gap": opens - wire_at}
         return self._enter(now, opens, model, size, kind, deliver, lossy, waits)
@@ -233,17 +236,49 @@ class DelayLine:
         return opens if opens is not None else first.arrival  # never again: drop it now
 
     def _admit_parked(self, now: float) -> None:
-        """Put on the wire, oldest first, each parked state whose turn has come by `now`."""
+        """Put on the wire, oldest first, each parked state whose turn has come by `now`, by the
+        rule `admit` applies (its waits split the same way; `drop` mode loses one a gap held)."""
         while (ready := self._parked_ready()) is not None and ready <= now:
             key = next(iter(self._parked))
-            p = self._parked.pop(key)
-            opens = p.model.plan.slot(ready, p.size)
+            p = self._unpark(key)
+            wire_at = max(p.ready, self._wire_free_at)
+            opens = p.model.plan.slot(wire_at, p.size)
             if opens is None:
                 self._drop(p.kind, p.size, p.arrival, p.model.version, "no_contact")
                 continue
-            self._enter(
-                p.arrival, opens, p.model, p.size, p.kind, p.deliver, p.lossy, {p.reason: opens - p.arrival}
-            )
+            if opens > wire_at and p.model.plan.mode == "drop":
+                self._drop(p.kind, p.size, p.arrival, p.model.version, "contact_gap")
+                continue
+            waits = {
+                "blackout": p.ready - p.arrival,
+                "queue": wire_at - p.ready,
+                "contact_gap": opens - wire_at,
+            }
+            self._enter(p.arrival, opens, p.model, p.size, p.kind, p.deliver, p.lossy, waits)
+
+    def _unpark(self, key: Hashable) -> Parked:
+        p = self._parked.pop(key)
+        self._parked_bytes -= p.size
+        return p
+
+    def forget(self, key: Hashable) -> None:
+        """The receiver of `key`'s states went away: its parked state goes (reason `gone`)."""
+        if key in self._parked:
+            p = self._unpark(key)
+            self._drop(p.kind, p.size, p.arrival, p.model.version, "gone")
+
+    def new_profile(self, now: float, model: "DirectionModel") -> None:
+        """A new profile takes effect: the wire is free from now (a message the old rate had
+        booked far ahead must not hold back the new one's), and parked states go by its rule."""
+        self._wire_free_at = min(self._wire_free_at, now)
+        for key in list(self._parked):
+            p = self._parked[key]
+            ready = model.blackout_end(now)
+            if ready is None:
+                self._unpark(key)
+                self._drop(p.kind, p.size, p.arrival, model.version, "blackout")
+                continue
+            p.model, p.ready = model, ready
 
     @property
     def parked(self) -> int:

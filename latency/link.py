@@ -56,8 +56,14 @@ class Link:
 
     def set_profile(self, profile: LinkProfile) -> int:
         """Take a new profile for messages arriving from now on; returns its version."""
-        self._active = self._activate(profile, self._active.version + 1)
-        return self._active.version
+        self._active = active = self._activate(profile, self._active.version + 1)
+        for direction, line in self.lines.items():
+            line.new_profile(active.activated_at, active.models[direction])
+        return active.version
+
+    def forget(self, direction: str, key: Hashable) -> None:
+        """A socket closed: its parked state, if any, goes (latency/delay_line.py)."""
+        self.lines[direction].forget(key)
 
     def profile_view(self) -> dict[str, Any]:
         active = self._active

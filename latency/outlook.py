@@ -23,9 +23,9 @@ def _boundaries(model: DirectionModel, t: float) -> list[float]:
     """Instants after t where the link's state may change (a window's or a blackout's edge)."""
     plan = model.plan
     out = []
-    window = plan.window_at(t)
-    if window is not None:
-        out.append(window[1])
+    if plan.window_at(t) is not None:
+        if (close := plan.next_close(t)) is not None:  # through touching windows: one contact
+            out.append(close)
     elif (opens := plan.next_open(t)) is not None:
         out.append(opens)
     since = t - model.activated_at

@@ -17,8 +17,8 @@
   closed downlink a socket's states are parked, the newest replacing the one before, while its
   events wait their turn; and the robot is told the socket's share of the downlink
   (ptwl/guard/link_notice.py), so it sends no more states than the link carries.
-- `/_link/...` is the control API: local, never delayed, never forwarded. GET /_link/profile
-  carries the link's `outlook` (latency/outlook.py): what the console counts down from.
+- `/_link/...` is the control API: local, never delayed, never forwarded. GET /_link/outlook is
+  the link's now and next (latency/outlook.py): what the console counts down from.
 - Access (ptwl/guard/): Host, Origin and the token are checked on every route and socket before
   anything is delayed or forwarded; the upstream sees no Origin (it was judged here). Bodies
   are capped at 64 KiB and must be strict JSON.
@@ -53,7 +53,7 @@ from latency.link import Link
 from ptwl.guard.access import AccessPolicy
 from ptwl.guard.disconnect import client_gone
 from ptwl.guard.json_body import JsonBodyError, parse_json
-from ptwl.guard.link_notice import notice_text
+from ptwl.guard.link_notice import MIN_SHARE, notice_text
 from ptwl.guard.outbox import Close, Outbox, is_state
 from ptwl.guard.stack import install_guards
 
@@ -141,6 +141,7 @@ class LinkProxy:
             routes=[
                 Route("/_link/profile", self.profile, methods=["GET", "PUT"]),
                 Route("/_link/stats", self.stats, methods=["GET"]),
+                Route("/_link/outlook", self.outlook, methods=["GET"]),
                 WebSocketRoute("/{path:path}", self.relay_websocket),
                 Route("/{path:path}", self.forward_http, methods=methods),
             ],
@@ -183,7 +184,10 @@ class LinkProxy:
             except ValidationError as err:
                 return JSONResponse({"detail": _problems(err)}, 422)
             self.link.set_profile(profile)
-        return JSONResponse({**self.link.profile_view(), "outlook": self.link.outlook(time.time())})
+        return JSONResponse(self.link.profile_view())
+
+    async def outlook(self, request: Request) -> Response:
+        return JSONResponse(self.link.outlook(time.time()))
 
     async def stats(self, request: Request) -> Response:
         return JSONResponse(self.link.stats_view())
@@ -305,6 +309,7 @@ class LinkProxy:
             await asyncio.gather(*tasks, return_exceptions=True)
             await upstream.close()
             self._sockets -= 1
+            self.link.forget("downlink", to_client)
 
     def _admit_ws(
         self, direction: str, message: Any, put: Callable[[Any], None], state_key: object = None
@@ -322,7 +327,7 @@ class LinkProxy:
         """Tell the robot this socket's share of the downlink when it changes (at the robot's
         end, undelayed: ptwl/guard/link_notice.py)."""
         rate = self.link.rate_now("downlink")
-        share = None if rate is None else rate / max(1, self._sockets)
+        share = None if rate is None else max(MIN_SHARE, rate / max(1, self._sockets))
         if share != told[0]:
             told[0] = share
             to_upstream.put_nowait(notice_text(share))

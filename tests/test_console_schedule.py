@@ -66,17 +66,17 @@ def test_a_command_that_may_outlast_the_contact_is_warned_with_its_latest_start(
     """Needs up (1 s) + its longest run (watchdog) + down (1 s) before the downlink's loss of
     signal; the latest start is for its run as asked (duration)."""
     fits = plan_send(outlook(down_change_in=20.0, gap_s=60.0), NOW, (2.0, 7.0))
-    assert not fits.may_outlast_contact and fits.text == ""  # 1 + 7 + 1 = 9 s <= 20 s
+    assert not fits.ask_first and fits.text == ""  # 1 + 7 + 1 = 9 s <= 20 s
     tight = plan_send(outlook(down_change_in=8.0, gap_s=60.0), NOW, (2.0, 7.0))
-    assert tight.may_outlast_contact and tight.los_at == NOW + 8.0
+    assert tight.ask_first and tight.los_at == NOW + 8.0
     assert tight.latest_start == pytest.approx(NOW + 8.0 - 1.0 - 2.0)  # LOS - down - duration
     assert "may run 7.0 s (its watchdog) + 1.00 s up + 1.00 s for its report" in tight.text
     assert "signal is lost in 8 s" in tight.text
     hopeless = plan_send(outlook(down_change_in=3.5, gap_s=60.0), NOW, (2.0, 7.0))
-    assert hopeless.may_outlast_contact and hopeless.latest_start is None  # 1 + 2 > 3.5 - 1
+    assert hopeless.ask_first and hopeless.latest_start is None  # 1 + 2 > 3.5 - 1
     # No loss of signal in the plan, or a run that cannot be told (a machine): no warning.
-    assert not plan_send(outlook(), NOW, (2.0, 7.0)).may_outlast_contact
-    assert not plan_send(outlook(down_change_in=3.0), NOW, None).may_outlast_contact
+    assert not plan_send(outlook(), NOW, (2.0, 7.0)).ask_first
+    assert not plan_send(outlook(down_change_in=3.0), NOW, None).ask_first
 
 
 def test_a_closed_uplink_holds_the_command_and_the_loss_is_judged_from_its_arrival() -> None:
@@ -84,8 +84,8 @@ def test_a_closed_uplink_holds_the_command_and_the_loss_is_judged_from_its_arriv
         outlook(up_open=False, up_change_in=30.0, down_change_in=38.0, gap_s=60.0), NOW, (2.0, 7.0)
     )
     assert held.held_until == NOW + 30.0
-    assert "holds it for the next contact at" in held.text
-    assert held.may_outlast_contact  # arrives at 31 s, may run to 38 s: its report 39 s > 38 s
+    assert "holds it for the uplink's next contact at" in held.text
+    assert held.ask_first  # arrives at 31 s, may run to 38 s: its report 39 s > 38 s
     assert held.latest_start == pytest.approx(NOW + 38.0 - 1.0 - 2.0)
 
 
@@ -188,7 +188,7 @@ def test_a_send_that_may_outlast_the_contact_offers_valid_until_sim_time(
         console.seat.take(desk.client_id)
         params = {**desk.panel.ptwl.params(), "duration": 1.0, "watchdog": 9.0}  # 0.1 + 9 + 0.1 > ~7.9 s
         plan, valid_until = console.commanding.plan_send("ptwl", params)
-        assert plan.may_outlast_contact and plan.los_at is not None and valid_until is not None
+        assert plan.ask_first and plan.los_at is not None and valid_until is not None
         state, _ = console.link.latest()
         assert state is not None
         expected = float(state["sim_time"]) + (plan.los_at - 0.1 - 1.0 - float(state["sent_at"]))
@@ -312,3 +312,18 @@ def test_silence_through_a_loss_of_signal_is_said_as_such_not_as_losses() -> Non
         outlook(up_open=False, down_open=False, up_change_in=30.0, down_change_in=30.0), NOW, None
     )
     assert closed.endswith("downlink closed")
+
+
+def test_a_command_that_cannot_leave_before_the_uplink_closes_waits_for_the_next_contact() -> None:
+    """Found by review: the uplink closing in 0.2 s with a 400 B command at 1 kB/s (0.4 s on
+    the wire) is held for the next contact, as the link's rule does; in drop mode it is lost."""
+    o = outlook(up_change_in=0.2, down_change_in=0.2, gap_s=60.0)
+    o["uplink"]["rate_bytes_per_s"] = 1000.0
+    held = plan_send(o, NOW, (2.0, 7.0), command_bytes=400)
+    assert held.held_until == NOW + 60.2
+    fits = plan_send(o, NOW, (2.0, 7.0), command_bytes=100)  # 0.1 s on the wire: it leaves
+    assert fits.held_until is None
+    lost = plan_send(o, NOW, (2.0, 7.0), command_bytes=400, mode="drop")
+    assert lost.ask_first and "it will be lost" in lost.text and lost.held_until is None
+    # Held past the downlink's loss of signal: that loss is not its own, so it is not judged.
+    assert not held.ask_first

@@ -17,7 +17,8 @@ def test_named_profiles_load_and_cite_their_sources() -> None:
     assert {"zero", "earth_moon", "vozar_4s", "pryor_5s"} <= set(profiles)
     moon = profiles["earth_moon"]
     assert moon.uplink + moon.downlink == pytest.approx(2.56)
-    assert moon.schedule is not None and moon.schedule.drift_s_per_s > 0.0  # the light time drifts
+    assert moon.schedule is not None and moon.schedule.period == 86400.0  # the light time drifts daily
+    assert [p.one_way_s for p in moon.schedule.delay][::2] == [1.28, 1.301, 1.28, 1.259, 1.28]
     assert profiles["vozar_4s"].uplink + profiles["vozar_4s"].downlink == pytest.approx(4.0)
     assert profiles["pryor_5s"].uplink + profiles["pryor_5s"].downlink == pytest.approx(5.0)
     assert all(p.description for p in profiles.values())

@@ -259,7 +259,9 @@ def test_profile_change_mid_stream_is_versioned(fast_server: ServiceProcess, tmp
 
         asyncio.run(run())
         time.sleep(1.2)
-    rows = [r for r in read_record(record) if r["direction"] == "downlink" and r["kind"] == "ws"]
+    rows = [
+        r for r in read_record(record) if r["direction"] == "downlink" and r["kind"] in ("ws", "ws_state")
+    ]
     v1 = [r for r in rows if r["profile_version"] == 1]
     v2 = [r for r in rows if r["profile_version"] == 2]
     assert v1 and v2

@@ -3,6 +3,7 @@ drop), a drifting or piecewise delay, serialisation at a rate, states replaced o
 downlink, an ION contact plan, and the outlook the console counts down from."""
 
 import itertools
+import time
 from pathlib import Path
 from typing import Any
 
@@ -105,9 +106,9 @@ def test_a_window_rate_overrides_the_profile_rate() -> None:
 
 
 def test_a_drifting_delay_is_the_schedule_at_ten_points() -> None:
-    profile = named_profile("earth_moon").merged({"jitter": {"distribution": "none"}})
-    assert profile.schedule is not None
-    drift = profile.schedule.drift_s_per_s
+    """A constant plus a drift rate (the Earth's turning, at its fastest)."""
+    drift = 1.5e-6
+    profile = LinkProfile.model_validate({"downlink": 1.28, "schedule": {"drift_s_per_s": drift}})
     sim = SimulatedLink(profile)
     times = [float(t) for t in np.linspace(0.0, 7200.0, 10)]
     for t in times:
@@ -117,6 +118,24 @@ def test_a_drifting_delay_is_the_schedule_at_ten_points() -> None:
     expected = [1.28 + drift * t for t in times]
     assert np.max(np.abs(np.subtract(realized, expected))) < 1e-9
     assert realized[-1] - realized[0] == pytest.approx(drift * 7200.0)  # 10.8 ms over two hours
+
+
+def test_earth_moon_drifts_over_a_day_within_its_swing_at_ten_points() -> None:
+    profile = named_profile("earth_moon").merged({"jitter": {"distribution": "none"}})
+    assert profile.schedule is not None
+    at = [p.at for p in profile.schedule.delay]
+    one_way = [p.one_way_s for p in profile.schedule.delay]
+    sim = SimulatedLink(profile)
+    times = [float(t) for t in np.linspace(0.0, 2 * 86400.0, 10)]
+    for t in times:
+        sim.send(t, "downlink")
+    sim.advance_to(2 * 86400.0 + 10.0)
+    realized = [t - e.arrival for t, e in released(sim)]
+    expected = [float(np.interp(t % 86400.0, at, one_way)) for t in times]
+    assert realized == pytest.approx(expected, abs=1e-9)
+    assert min(realized) >= 1.259 and max(realized) <= 1.301
+    trend = Plan(profile.schedule, "downlink", 1.28, None, 0.0).trend(1000.0)
+    assert trend == pytest.approx((1.2948 - 1.28) / 10800.0)  # 4.9 ms an hour, rising
 
 
 def test_piecewise_delay_follows_its_points_and_repeats_with_the_period() -> None:
@@ -309,7 +328,11 @@ def test_a_bad_contact_plan_is_refused_naming_its_line(tmp_path: Path, text: str
         ({"contacts": [{"start": 0.0, "end": 50.0}], "period": 40.0}, r"ends at 50 s, after the period"),
         ({"drift_s_per_s": 1e-6, "delay": [{"at": 0.0, "one_way_s": 1.0}]}, "not both"),
         ({"delay": [{"at": 5.0, "one_way_s": 1.0}, {"at": 1.0, "one_way_s": 1.0}]}, "increasing `at`"),
-        ({"contacts": [{"start": 0.0, "end": 5.0, "rate_bytes_per_s": 0.0}]}, "greater than 0"),
+        ({"contacts": [{"start": 0.0, "end": 5.0, "rate_bytes_per_s": 0.5}]}, "greater than or equal to 1"),
+        (
+            {"contacts": [{"start": 0.0, "end": 5.0, "direction": "uplink"}]},
+            "no contact carries the downlink",
+        ),
         ({"mode": "hold"}, "'store' or 'drop'"),
         ({"contacts": [{"start": 0.0, "end": 5.0, "colour": 1}]}, "Extra inputs are not permitted"),
     ],
@@ -365,3 +388,117 @@ def test_the_links_mcap_record_says_why_each_message_waited_and_the_report_sums_
     assert "waited for contact_gap: 1 messages, mean 8.000 s, max 8.000 s" in text
     assert "waited for queue: 1 messages, mean 7.100 s, max 7.100 s" in text
     assert "released late by mean 0.00 ms, max 0.00 ms" in text
+
+
+def test_an_inner_window_at_its_own_rate_keeps_the_outer_window_around_it() -> None:
+    """Overlaps: the contact listed later sets the rate where it lies; the rest of the earlier
+    one stays open (found by review: the outer window was cut off after the inner one)."""
+    schedule = {
+        "contacts": [{"start": 0.0, "end": 100.0}, {"start": 20.0, "end": 30.0, "rate_bytes_per_s": 1e6}],
+    }
+    plan = Plan(LinkProfile.model_validate({"schedule": schedule}).schedule, "uplink", 0.0, None, 0.0)
+    assert plan._windows == [(0.0, 20.0, None), (20.0, 30.0, 1e6), (30.0, 100.0, None)]
+    assert plan.window_at(50.0) is not None and plan.next_close(5.0) == 100.0
+    same_start = {
+        "contacts": [
+            {"start": 0.0, "end": 100.0},
+            {"start": 0.0, "end": 50.0, "direction": "downlink", "rate_bytes_per_s": 2000.0},
+        ]
+    }
+    plan = Plan(LinkProfile.model_validate({"schedule": same_start}).schedule, "downlink", 0.0, None, 0.0)
+    assert plan._windows == [(0.0, 50.0, 2000.0), (50.0, 100.0, None)]
+
+
+def test_window_edges_survive_the_rounding_of_many_periods() -> None:
+    """A period that is no binary fraction (5400.3 s): every in-contact instant over 200 orbits
+    still sees its window close, where the contact plan says (found by review: the end, located
+    again, rounded back inside the window and the link never closed)."""
+    schedule = {
+        "period": 5400.3,
+        "contacts": [{"start": 0.0, "end": 2690.1}, {"start": 2700.2, "end": 5390.0}],
+    }
+    plan = Plan(LinkProfile.model_validate({"schedule": schedule}).schedule, "downlink", 0.0, None, 0.0)
+    for t in np.linspace(0.0, 200 * 5400.3, 601):
+        window = plan.window_at(float(t))
+        if window is None:
+            continue
+        close = plan.next_close(float(t))
+        assert close is not None and close == pytest.approx(window[1], abs=1e-6)
+        assert plan.window_at(close) is None  # closed at its end, not still inside
+
+
+def test_touching_windows_across_the_period_are_one_contact_and_a_full_plan_never_closes() -> None:
+    wrap = {
+        "period": 100.0,
+        "contacts": [{"start": 0.0, "end": 10.0}, {"start": 60.0, "end": 100.0, "rate_bytes_per_s": 5.0}],
+    }
+    plan = Plan(LinkProfile.model_validate({"schedule": wrap}).schedule, "uplink", 0.0, None, 0.0)
+    assert plan.next_close(70.0) == 110.0  # runs on into the next period's first window
+    assert plan.next_close(105.0) == 110.0
+    full = {
+        "period": 10.0,
+        "contacts": [{"start": 0.0, "end": 5.0}, {"start": 5.0, "end": 10.0, "rate_bytes_per_s": 9.0}],
+    }
+    plan = Plan(LinkProfile.model_validate({"schedule": full}).schedule, "uplink", 0.0, None, 0.0)
+    assert plan.next_close(3.0) is None and plan.next_open(1e6 + 0.3) == 1e6 + 0.3
+
+
+def test_ten_thousand_touching_windows_cost_microseconds_a_message() -> None:
+    """A hostile plan (found by review: each message walked every touching window): 10,000
+    windows of alternating rates; admitting 2,000 messages takes well under a second."""
+    contacts = [
+        {"start": float(i), "end": float(i + 1), "rate_bytes_per_s": 1e6 if i % 2 else 2e6}
+        for i in range(10_000)
+    ]
+    profile = LinkProfile.model_validate({"downlink_bytes_per_s": 1e6, "schedule": {"contacts": contacts}})
+    sim = SimulatedLink(profile)
+    started = time.process_time()
+    for i in range(2000):
+        sim.send(i * 0.001, "downlink", size=100, kind="state", replace_key="c")
+        sim.send(i * 0.001, "downlink", size=100)
+    sim.advance_to(3.0)
+    assert time.process_time() - started < 1.0
+    assert sim.link.outlook(0.0)["downlink"]["changes_in_s"] == pytest.approx(10_000.0 - 3.0)
+
+
+def test_a_new_profile_frees_the_wire_and_takes_the_parked_states() -> None:
+    """Found by review: a parked state kept the old profile's crawl and went after newer ones.
+    Now the wire is free from the change, and a parked state goes first, by the new profile's
+    rule (all behind the message already booked: no overtaking, as for any profile change)."""
+    sim = SimulatedLink(LinkProfile(downlink_bytes_per_s=1.0))
+    sim.send(0.0, "downlink", size=5)  # 5 s on the wire at 1 B/s
+    parked = sim.send(1.0, "downlink", size=100, kind="state", replace_key="c")  # 100 s more
+    assert isinstance(parked, Parked)
+    sim.advance_to(2.0)
+    sim.link.set_profile(LinkProfile())
+    sim.send(3.0, "downlink", size=100, kind="state", replace_key="c")
+    sim.advance_to(10.0)
+    out = released(sim)
+    assert [(round(t, 9), e.kind, e.arrival) for t, e in out] == [
+        (5.0, "ws", 0.0),
+        (5.0, "state", 1.0),
+        (5.0, "state", 3.0),
+    ]
+
+
+def test_a_closed_sockets_parked_state_goes_and_parked_states_count_against_the_caps() -> None:
+    sim = SimulatedLink(gap_profile(max_held_messages=3))
+    for key in ("a", "b", "c"):
+        assert isinstance(sim.send(12.0, "downlink", kind="state", replace_key=key), Parked)
+    refused = sim.send(12.5, "downlink")  # three parked: the cap is reached
+    assert isinstance(refused, Dropped) and refused.reason == "overflow"
+    sim.link.forget("downlink", "b")
+    assert sim.link.stats_view()["downlink"]["dropped"]["gone"] == 1
+    assert sim.link.stats_view()["downlink"]["held_now"]["parked_states"] == 2
+    sim.advance_to(40.0)
+    assert [e.arrival for _, e in released(sim)] == [12.0, 12.0]
+
+
+def test_in_drop_mode_a_state_parked_behind_a_queue_is_lost_to_the_gap_not_carried_across() -> None:
+    """Found by review: it crossed the gap as a 'queue' wait."""
+    sim = SimulatedLink(gap_profile("drop", downlink_bytes_per_s=1000.0))
+    sim.send(9.0, "downlink", size=900)  # on the wire until 9.9
+    sim.send(9.5, "downlink", size=200, kind="state", replace_key="c")  # 9.9 + 0.2 > 10: the gap
+    sim.advance_to(40.0)
+    assert [e.kind for _, e in released(sim)] == ["ws"]
+    assert sim.link.stats_view()["downlink"]["dropped"]["contact_gap"] == 1

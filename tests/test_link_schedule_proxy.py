@@ -129,13 +129,14 @@ def test_an_ion_plan_given_to_the_proxy_gives_its_windows_and_the_countdown(
     before = time.time()
     with running_proxy(server.url, "--schedule", str(plan)) as p:
         view = httpx.get(p.url + "/_link/profile").json()
+        outlook = httpx.get(p.url + "/_link/outlook").json()
     schedule = view["schedule"]
     assert [(c["start"], c["end"], c["direction"], c["rate_bytes_per_s"]) for c in schedule["contacts"]] == [
         (0.0, 30.0, "uplink", 8000.0),
         (0.0, 30.0, "downlink", 2000.0),
         (90.0, 120.0, "uplink", 8000.0),
     ]
-    up, down = view["outlook"]["uplink"], view["outlook"]["downlink"]
+    up, down = outlook["uplink"], outlook["downlink"]
     assert up["in_contact"] and down["in_contact"]
     assert up["one_way_s"] == 1.25 and down["rate_bytes_per_s"] == 2000.0
     # Loss of signal 30 s after the proxy started, for 60 s up (the downlink never comes back).
@@ -188,3 +189,47 @@ def test_a_2_kB_s_downlink_carries_events_in_order_and_states_no_older_than_a_fe
     assert all(r["why"].get("queue", 0.0) <= 2 * size / 2000.0 + 1.0 for r in command_rows)
     stats = httpx.get(p.url + "/_link/stats").json()["downlink"]
     assert stats["held_now"]["messages"] <= 3
+
+
+async def notice_attack(url: str) -> tuple[int | None, str, int, int]:
+    """A hostile notice on one socket, a slowest-link one on another, a plain reader beside:
+    (the hostile socket's close code, its reason, states the plain reader got in 2 s, states the
+    slow one got)."""
+    async with (
+        websockets.connect(ws(url), ping_interval=None, max_queue=None) as hostile,
+        websockets.connect(ws(url), ping_interval=None, max_queue=None) as slow,
+        websockets.connect(ws(url), ping_interval=None, max_queue=None) as plain,
+    ):
+        await hostile.send('{"type": "link", "downlink_bytes_per_s": 5e-324}')
+        await slow.send('{"type": "link", "downlink_bytes_per_s": 1e-6}')
+        code, reason = None, ""
+        try:
+            while True:
+                await asyncio.wait_for(hostile.recv(), 5.0)
+        except websockets.ConnectionClosed as closed:
+            code, reason = (
+                closed.rcvd.code if closed.rcvd else None,
+                closed.rcvd.reason if closed.rcvd else "",
+            )
+
+        async def count(conn: Any, seconds: float) -> int:
+            n, end = 0, time.monotonic() + seconds
+            while time.monotonic() < end:
+                try:
+                    text = await asyncio.wait_for(conn.recv(), 0.5)
+                except TimeoutError:
+                    continue
+                n += json.loads(text)["type"] == "state"
+            return n
+
+        plain_n, slow_n = await asyncio.gather(count(plain, 2.0), count(slow, 2.0))
+    return code, reason, plain_n, slow_n
+
+
+def test_a_hostile_link_notice_closes_its_own_socket_and_starves_no_one(server: ServiceProcess) -> None:
+    """Found by review: a notice of 5e-324 B/s passed a `> 0` check, the state interval divided
+    by zero, and the robot's fan-out stopped for every client after it."""
+    code, reason, plain_n, slow_n = asyncio.run(notice_attack(server.url))
+    assert code == 1007 and "downlink_bytes_per_s" in reason and "greater than or equal to 0.000001" in reason
+    assert plain_n >= 2.0 * 50 * 0.5  # the plain reader still gets its 50 Hz (with a busy-host margin)
+    assert slow_n <= 1  # the slowest link's share: one state, then nothing for a long while

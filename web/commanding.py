@@ -2,6 +2,8 @@
 PTWL on the twin, send (only the one in control; stamped with its expiry and who sent it), edit
 task frames, and STOP (anyone; retried until confirmed: web/stop_sender.py)."""
 
+import json
+import math
 import time
 from typing import TYPE_CHECKING, Any
 
@@ -38,6 +40,7 @@ if TYPE_CHECKING:
 # [s] the longest a console waits on a command the link holds for its next contact; past it the
 # console gives up (the link then lets the request go, and the log says "not delivered").
 MAX_HELD_WAIT_S = 3 * 3600.0
+REQUEST_HEAD_BYTES = 400  # [bytes] a command request's line and headers, about (its body is counted)
 
 
 class Commanding:
@@ -108,10 +111,14 @@ class Commanding:
         now = time.time()
         # A closed uplink holds the command for its next contact: it is that much older when it
         # arrives (max_age), and its answer that much later (the HTTP wait).
-        held_until = plan_send(self._link.outlook(), now, None).held_until
+        held_until = self.plan_send(behavior, params)[0].held_until
         held_s = 0.0 if held_until is None else min(held_until - now, MAX_HELD_WAIT_S)
         if held_until is not None:
-            view.detail = f"held by the link for the next contact at {clock_text(held_until)}"
+            view.detail = (
+                f"held by the link for the next contact at {clock_text(held_until)}"
+                if math.isfinite(held_until)
+                else "held by the link: no uplink contact left in its plan"
+            )
             self._log.changed(view)
         max_age_s = self._link.rtt_s() + held_s + self._defaults.max_age_over_rtt_s
         stamped = {"max_age": max_age_s, "sent_at": now, **params}
@@ -140,7 +147,14 @@ class Commanding:
         robot's sim time of its latest start that still finishes before the loss of signal (None:
         there is none, or no state to tell the robot's time by)."""
         checked = self.check(behavior, params).params
-        plan = plan_send(self._link.outlook(), time.time(), run_time_s(checked) if checked else None)
+        profile = self._link.profile() or {}
+        plan = plan_send(
+            self._link.outlook(),
+            time.time(),
+            run_time_s(checked) if checked else None,
+            len(json.dumps(params)) + REQUEST_HEAD_BYTES,
+            (profile.get("schedule") or {}).get("mode", "store"),
+        )
         state, _ = self._link.latest()
         if plan.latest_start is None or state is None:
             return plan, None

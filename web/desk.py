@@ -166,7 +166,7 @@ class Desk:
             self.client.add_notification("Not sent: a field is marked in red", err.reason, color="red")
             return
         plan, valid_until = self._services.plan_send(behavior, params)
-        if plan.may_outlast_contact:
+        if plan.ask_first:
             self._confirm_before_los(behavior, params, plan.text, valid_until)
             return
         self.preview.clear()

@@ -46,7 +46,7 @@ def direction_now(outlook: dict[str, Any], direction: str, now: float) -> Direct
         changes_at,
         d["next_gap_s"] if in_contact else None,
         closed_since,
-        float(d["one_way_s"]) + trend * (now - float(outlook["now_unix"])),
+        max(0.0, float(d["one_way_s"]) + trend * (now - float(outlook["now_unix"]))),
         trend,
         d["rate_bytes_per_s"],
         int(d["held_messages"]),
@@ -127,7 +127,7 @@ def schedule_line(outlook: dict[str, Any], now: float, state_every_s: float | No
 
 def has_schedule(profile: dict[str, Any] | None) -> bool:
     """A link whose contact, delay or rate changes over time, or is limited: the bar shows its line."""
-    if profile is None or "outlook" not in profile:
+    if profile is None:
         return False
     return bool(
         profile.get("schedule")
@@ -170,43 +170,74 @@ def run_time_s(params: BehaviorParams | GripperParams | Any) -> tuple[float, flo
 class SendPlan:
     """What the link's schedule means for a command sent now."""
 
-    held_until: float | None  # [s] Unix: the uplink is closed; the link holds it until then
-    may_outlast_contact: bool  # it may not finish (and its report come down) before LOS
+    held_until: float | None  # [s] Unix: the link holds it until the uplink's next contact
+    ask_first: bool  # say `text` and ask before sending: it may not finish in contact, or be lost
     latest_start: float | None  # [s] Unix: the latest start that still finishes as asked
     los_at: float | None  # [s] Unix: the loss of signal it is judged against
     text: str  # the warning, or "" when none is needed
 
 
-def plan_send(outlook: dict[str, Any] | None, now: float, runs_s: tuple[float, float] | None) -> SendPlan:
+def _uplink_wait(up: DirectionNow, now: float, command_bytes: int) -> float | None:
+    """[s] Unix when the link lets the command go up, if it must wait for a contact: the uplink
+    is closed, or closes before the command is off the wire (latency/schedule.py Plan.slot)."""
+    if not up.in_contact:
+        return up.changes_at if up.changes_at is not None else math.inf
+    on_wire_s = command_bytes / up.rate_bytes_per_s if up.rate_bytes_per_s else 0.0
+    if up.changes_at is not None and now + on_wire_s > up.changes_at:
+        return up.changes_at + up.next_gap_s if up.next_gap_s is not None else math.inf
+    return None
+
+
+def plan_send(
+    outlook: dict[str, Any] | None,
+    now: float,
+    runs_s: tuple[float, float] | None,
+    command_bytes: int = 0,
+    mode: str = "store",
+) -> SendPlan:
     """Can a command sent now finish before the next loss of signal? It needs the uplink's delay
     (after any wait for the uplink's contact), its run, and its report's downlink delay, before
-    the downlink closes. Judged on its longest run (its watchdog); the latest start is for its
-    run as asked, so a command queued behind others does not start too late."""
+    the downlink closes (the issue's rule: the report is seen on the ground before the loss).
+    Judged on its longest run (its watchdog); the latest start is for its run as asked, so a
+    command queued behind others does not start too late. `mode`: the schedule's; in `drop` a
+    command that must wait for a contact is lost."""
     if outlook is None:
         return SendPlan(None, False, None, None, "")
     up = direction_now(outlook, "uplink", now)
     down = direction_now(outlook, "downlink", now)
-    held_until = None if up.in_contact else (up.changes_at if up.changes_at is not None else math.inf)
-    arrives = (held_until if held_until is not None else now) + up.one_way_s
-    held = (
-        f"The uplink is closed: the link holds it for the next contact at {clock_text(held_until)}. "
-        if held_until is not None and math.isfinite(held_until)
-        else "The uplink is closed with no contact in the plan: it will not arrive. "
-        if held_until is not None
-        else ""
-    )
-    if not down.in_contact or down.changes_at is None or runs_s is None:
-        return SendPlan(held_until, False, None, None, held)
+    waits_until = _uplink_wait(up, now, command_bytes)
+    if waits_until is not None and mode == "drop":
+        return SendPlan(
+            None,
+            True,
+            None,
+            None,
+            "The uplink is closed (or closes before it is sent) and this link drops what waits for a "
+            "contact: it will be lost. Send it in the next contact"
+            + (f", at {clock_text(waits_until)}." if math.isfinite(waits_until) else "."),
+        )
+    held = ""
+    if waits_until is not None:
+        held = (
+            f"The link holds it for the uplink's next contact at {clock_text(waits_until)}. "
+            if math.isfinite(waits_until)
+            else "The uplink has no contact left in the plan: it will not arrive. "
+        )
+    arrives = (waits_until if waits_until is not None else now) + up.one_way_s
+    if not down.in_contact or down.changes_at is None or runs_s is None or arrives >= down.changes_at:
+        # No loss of signal ahead in the plan, a run that cannot be told, or one that starts
+        # after the next loss (the outlook does not say when the one after that comes).
+        return SendPlan(waits_until, False, None, None, held)
     los = down.changes_at
     typical_s, longest_s = runs_s
     if arrives + longest_s + down.one_way_s <= los:
-        return SendPlan(held_until, False, None, los, held)
+        return SendPlan(waits_until, False, None, los, held)
     latest_start = los - down.one_way_s - typical_s
     text = held + (
         f"It may run {longest_s:.1f} s (its watchdog) + {up.one_way_s:.2f} s up + {down.one_way_s:.2f} s "
         f"for its report; signal is lost in {duration_text(los - now)} (at {clock_text(los)})."
     )
-    return SendPlan(held_until, True, latest_start if latest_start >= arrives else None, los, text)
+    return SendPlan(waits_until, True, latest_start if latest_start >= arrives else None, los, text)
 
 
 def sim_time_at(unix_s: float, state: dict[str, Any]) -> float:

@@ -1,5 +1,6 @@
-"""The link's own profile (GET /_link/profile, local to the proxy and never delayed), polled so
-the console knows the round trip it is working across; stoppable."""
+"""The link's own profile and outlook (GET /_link/profile and /_link/outlook, local to the proxy
+and never delayed), polled so the console knows the round trip it is working across and the
+schedule it plans around; stoppable."""
 
 import time
 from collections.abc import Callable
@@ -31,6 +32,7 @@ def on_local_clock(outlook: dict[str, Any], local_now: float) -> dict[str, Any]:
 class LinkPoller(Worker):
     def __init__(self, robot_url: str, token: str | None, on_text: Callable[[str], None]) -> None:
         self._url = robot_url + "/_link/profile"
+        self._outlook_url = robot_url + "/_link/outlook"
         self._headers = bearer_header(token)
         self._on_text = on_text
         self.rtt_s = 0.0
@@ -43,6 +45,14 @@ class LinkPoller(Worker):
             self._on_text(self.poll())
             self._closed.wait(POLL_S)
 
+    def _poll_outlook(self) -> dict[str, Any] | None:
+        """The link's now and next, on this console's clock (None: a link that does not say)."""
+        try:
+            response = httpx.get(self._outlook_url, headers=self._headers, timeout=2.0)
+        except httpx.HTTPError:
+            return None
+        return on_local_clock(response.json(), time.time()) if response.status_code == 200 else None
+
     def poll(self) -> str:
         try:
             response = httpx.get(self._url, headers=self._headers, timeout=2.0)
@@ -52,8 +62,7 @@ class LinkPoller(Worker):
             self.profile, self.outlook, self.rtt_s = None, None, 0.0
             return "link: direct connection (no link proxy)"
         p = self.profile = response.json()
-        outlook = p.get("outlook")
-        self.outlook = on_local_clock(outlook, time.time()) if isinstance(outlook, dict) else None
+        self.outlook = self._poll_outlook()
         self.rtt_s = float(p["uplink"]) + float(p["downlink"])
         described = f": {p['description']}" if p.get("description") else ""
         return (

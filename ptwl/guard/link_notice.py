@@ -10,12 +10,14 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 MAX_NOTICE_CHARS = 256
 MAX_RATE = 1e12  # [bytes/s] the most a link's rate may be (latency/schedule.py's bound too)
+MIN_RATE = 1.0  # [bytes/s] the least a link's rate may be
+MIN_SHARE = 1e-6  # [bytes/s] the least a notice tells: a socket's share of the slowest link
 
 
 class LinkNotice(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
     type: str = Field(pattern="^link$")
-    downlink_bytes_per_s: float | None = Field(gt=0.0, le=MAX_RATE)
+    downlink_bytes_per_s: float | None = Field(ge=MIN_SHARE, le=MAX_RATE)
 
 
 def notice_text(downlink_bytes_per_s: float | None) -> str:
@@ -36,5 +38,6 @@ def parse_notice(text: str) -> float | None:
         first = err.errors()[0]
         where = ".".join(str(p) for p in first["loc"]) or "notice"
         raise ValueError(
-            f"link notice {where}: {first['msg']} (downlink_bytes_per_s: (0, {MAX_RATE:g}] or null)"
+            f"link notice {where}: {first['msg']} "
+            f"(downlink_bytes_per_s: [{MIN_SHARE:g}, {MAX_RATE:g}] or null)"
         ) from None

@@ -34,7 +34,8 @@ async def _until_closed(ws: WebSocket, sub: Outbox) -> None:
                 try:
                     sub.set_downlink(parse_notice(text))
                 except ValueError as err:
-                    await ws.close(CLOSE_INVALID, str(err)[:120])
+                    # A close reason is at most 123 bytes of UTF-8.
+                    await ws.close(CLOSE_INVALID, str(err).encode()[:120].decode(errors="ignore"))
                     return
 
 
