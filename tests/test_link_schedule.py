@@ -18,10 +18,12 @@ from latency.plan_file import PlanFileError, read_schedule
 from latency.profile import LinkProfile
 from latency.record import McapRecorder
 from latency.schedule import Plan
+from ptwl.guard.outbox import Outbox
 from ptwl.recording import topics
 from ptwl.recording.reader import read
 from ptwl.recording.report import report_text
 from ptwl.recording.writer import SessionRecorder
+from tests.fake_clock import FakeClock
 
 
 def gap_profile(mode: str = "store", **extra: Any) -> LinkProfile:
@@ -502,3 +504,62 @@ def test_in_drop_mode_a_state_parked_behind_a_queue_is_lost_to_the_gap_not_carri
     sim.advance_to(40.0)
     assert [e.kind for _, e in released(sim)] == ["ws"]
     assert sim.link.stats_view()["downlink"]["dropped"]["contact_gap"] == 1
+
+
+def test_a_message_held_for_a_contact_travels_the_delay_of_when_it_leaves() -> None:
+    """The one-way delay is the schedule's at the moment a message takes the wire, not at its
+    arrival: held 8 s by a gap on a drifting delay, it gets the later delay."""
+    profile = gap_profile().merged(
+        {
+            "schedule": {
+                "contacts": [{"start": 0.0, "end": 10.0}, {"start": 20.0, "end": 100.0}],
+                "drift_s_per_s": 1e-3,
+            }
+        }
+    )
+    sim = SimulatedLink(profile)
+    sim.send(12.0, "downlink")
+    sim.advance_to(40.0)
+    ((t, entry),) = released(sim)
+    assert entry.waits["delay"] == pytest.approx(0.5 + 1e-3 * 20.0)  # left at 20 s, not 12 s
+    assert t == pytest.approx(20.0 + 0.52)
+
+
+def test_a_hold_blackout_alone_stores_every_state_as_before() -> None:
+    """Parking is for a busy wire or a schedule's gap; a blackout (seconds) stores each state and
+    releases them all, in order, when it ends (the older rule, kept)."""
+    sim = SimulatedLink(
+        LinkProfile.model_validate({"blackouts": [{"start": 1.0, "duration": 1.0, "mode": "hold"}]})
+    )
+    for i in range(150):  # 0-3 s at 50 Hz
+        sim.send(i * 0.02, "downlink", kind="state", replace_key="c")
+    sim.advance_to(5.0)
+    out = released(sim)
+    assert len(out) == 150 and [e.seq for _, e in out] == sorted(e.seq for _, e in out)
+    held = [t for t, e in out if 1.0 <= e.arrival < 2.0]
+    assert len(held) == 50 and held == pytest.approx([2.0] * 50)  # the held second, at its end
+
+
+def test_the_robot_keeps_its_states_to_half_the_downlink_it_is_told() -> None:
+    """50 Hz states of 1000 characters on a socket told 2000 B/s: one a second (STATE_SHARE of
+    the rate), each saying how many it left out and the interval."""
+    clock = FakeClock()
+    box = Outbox(clock=clock)
+    box.set_downlink(2000.0)
+    state = '{"type": "state"' + "x" * (1000 - len('{"type": "state"') - 1) + "}"
+    queued = []
+    for i in range(500):  # 10 s
+        clock.now = 100.0 + i * 0.02
+        thinned = box.thinned
+        box.put(state)
+        if box.thinned == thinned:
+            queued.append(box.thinning_fields())
+    assert len(queued) == 10
+    assert queued[0] == ', "skipped": 0, "every_s": 1.000000'
+    assert all(
+        q in (', "skipped": 49, "every_s": 1.000000', ', "skipped": 50, "every_s": 1.000000')
+        for q in queued[1:]
+    )
+    assert box.thinned == 490
+    box.set_downlink(None)
+    assert box.thinning_fields() == ""
