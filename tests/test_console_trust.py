@@ -32,7 +32,7 @@ ARTIFACTS = Path(__file__).resolve().parent.parent / "artifacts"
 
 def set_link(link: ServiceProcess, **profile: object) -> None:
     """PUT merges into the link's profile: name every field a test uses, blackouts included."""
-    body = {"uplink": 0.0, "downlink": 0.0, "blackouts": [], **profile}
+    body = {"uplink": 0.0, "downlink": 0.0, "blackouts": [], "schedule": None, **profile}
     httpx.put(link.url + "/_link/profile", json=body).raise_for_status()
 
 
@@ -630,3 +630,42 @@ def test_preview_then_send_a_step(browser, stack, calm) -> None:  # type: ignore
     assert step["translation"] == pytest.approx([0.0, 0.010, 0.0], abs=1e-9)  # 25 % of 40 mm
     assert port_mm(page)[1] - y0 == pytest.approx(10.0, abs=2.5)
     page.close()
+
+
+SCHEDULE_LINE = "document.querySelector('#ptwl-schedule')"
+
+
+def test_the_bar_counts_down_to_a_loss_of_signal_and_a_send_that_may_outlast_it_asks_first(  # type: ignore[no-untyped-def]
+    browser, stack, calm
+) -> None:
+    """Issue 32: the bar says when the signal will be lost; a PTWL that may run 6 s (its watchdog)
+    sent ~1-3 s before a loss at 6.5 s asks first, and its "start by" sends valid_until_sim_time;
+    through the loss the line says LOSS OF SIGNAL."""
+    robot, link, console = stack
+    page = open_console(browser, console.url)
+    set_fields(page, "Duration [s]", 1)  # the watchdog follows: duration + 5 = 6 s
+    put_at = time.monotonic()
+    set_link(link, schedule={"contacts": [{"start": 0.0, "end": 6.5}, {"start": 10.5, "end": 600.0}]})
+    until(page, f"{SCHEDULE_LINE}?.innerText.includes('signal lost in')", timeout=5e3)
+    time.sleep(max(0.0, put_at + 1.0 - time.monotonic()))  # past 0.5 s: 6 s can no longer fit
+    line = page.locator("#ptwl-schedule").inner_text()
+    assert "in contact until" in line and "for 4 s" in line, line
+    with RobotClient(robot.url) as client:
+        before = len(client.commands(limit=100))
+        page.get_by_role("button", name="Send cmd").click()
+        page.get_by_text("Signal may be lost before it finishes").wait_for(timeout=5e3)
+        warning = page.locator("#ptwl-los-warning").inner_text()
+        assert "It may run 6.0 s (its watchdog)" in warning and "signal is lost in" in warning
+        assert len(client.commands(limit=100)) == before  # nothing went before the operator said
+        page.get_by_role("button", name="Send: start by sim time").click()
+        deadline = time.monotonic() + 5.0
+        while len(client.commands(limit=100)) == before and time.monotonic() < deadline:
+            time.sleep(0.05)
+        sent = client.commands(limit=1)[-1]
+        state = client.state()
+    # Its latest start: the loss at 6.5 s less its 1 s, in the robot's sim time (now + what is left).
+    left_s = put_at + 6.5 - 1.0 - time.monotonic()
+    assert sent.params["valid_until_sim_time"] == pytest.approx(state.sim_time + left_s, abs=0.5)
+    until(page, f"{SCHEDULE_LINE}?.dataset.los === '1'", timeout=10e3)
+    assert page.locator("#ptwl-schedule").inner_text().startswith("LOSS OF SIGNAL for ")
+    assert "out of contact" in page.locator("#ptwl-link").inner_text()
