@@ -285,10 +285,6 @@ class DelayLine:
         """States waiting for the wire (at most one per key)."""
         return len(self._parked)
 
-    def wire_free_at(self) -> float:
-        """[s] when the message on the wire has left it (-inf: free; an unlimited wire always is)."""
-        return self._wire_free_at
-
     # ---------------------------------------------------------------- releases
     def next_release(self) -> float | None:
         heads = []
