@@ -263,6 +263,7 @@ def test_a_thinned_downlink_is_not_counted_as_lost(console: ConsoleApp, link: Se
     """At 2 kB/s the robot sends a state every ~len/1000 s and says how many it left out: the
     console shows that interval and counts none of them lost."""
     set_link(console, link, {"downlink": 0.05, "downlink_bytes_per_s": 2000.0})
+    assert console.link.poller is not None and console.link.poller.replaces_states  # judged at the poll
     lost_before = console.link.health.lost
     time.sleep(6.0)
     health = console.link.health

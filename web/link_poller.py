@@ -9,6 +9,7 @@ from typing import Any
 import httpx
 
 from ptwl.guard.access import bearer_header
+from web.link_plan import link_replaces_states
 from web.worker import Worker
 
 POLL_S = 2.0
@@ -38,6 +39,7 @@ class LinkPoller(Worker):
         self.rtt_s = 0.0
         self.profile: dict[str, Any] | None = None
         self.outlook: dict[str, Any] | None = None  # the link's now and next, on this console's clock
+        self.replaces_states = False  # judged once a poll, read on every state (web/link_plan.py)
         super().__init__("ptwl-link-profile", join_timeout_s=POLL_S + 1.0)
 
     def _run(self) -> None:
@@ -60,8 +62,10 @@ class LinkPoller(Worker):
             return f"link: its control API does not answer ({type(err).__name__})"
         if response.status_code != 200:
             self.profile, self.outlook, self.rtt_s = None, None, 0.0
+            self.replaces_states = False
             return "link: direct connection (no link proxy)"
         p = self.profile = response.json()
+        self.replaces_states = link_replaces_states(p)
         self.outlook = self._poll_outlook()
         self.rtt_s = float(p["uplink"]) + float(p["downlink"])
         described = f": {p['description']}" if p.get("description") else ""

@@ -14,7 +14,6 @@ from server.client import RobotClient
 from server.models import GeometryModel
 from web.feed import TelemetryFeed
 from web.handshake import Catalog, Handshake
-from web.link_plan import link_replaces_states
 from web.link_poller import LinkPoller
 from web.telemetry_health import TelemetryHealth
 
@@ -56,7 +55,7 @@ class RobotLink:
                 arrived,
                 int(message.get("skipped", 0)),
                 float(message["every_s"]) if "every_s" in message else None,
-                link_replaces_states(self.profile()),
+                self.poller is not None and self.poller.replaces_states,
             )
             on_state(message, arrived, previous)
 
