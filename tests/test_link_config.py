@@ -82,6 +82,17 @@ def test_control_api_token(server: ServiceProcess) -> None:
         )
         ok = httpx.get(guarded.url + "/_link/stats", headers={"Authorization": f"Bearer {LINK_TOKEN}"})
         assert ok.status_code == 200 and {"uplink", "downlink"} <= set(ok.json())
+        # The schedule's outlook (issue 32) is behind the same door, Host and Origin too.
+        assert httpx.get(guarded.url + "/_link/outlook").status_code == 401
+        bearer = {"Authorization": f"Bearer {LINK_TOKEN}"}
+        outlook = httpx.get(guarded.url + "/_link/outlook", headers=bearer)
+        assert outlook.status_code == 200 and outlook.json()["downlink"]["in_contact"] is True
+        foreign = {**bearer, "Origin": "http://evil.example"}
+        assert httpx.get(guarded.url + "/_link/outlook", headers=foreign).status_code == 403
+        assert (
+            httpx.get(guarded.url + "/_link/outlook", headers={**bearer, "Host": "evil.example"}).status_code
+            == 400
+        )
 
 
 @pytest.mark.parametrize(
