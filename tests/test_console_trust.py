@@ -246,8 +246,9 @@ def test_a_stop_that_fails_stays_on_screen_and_a_dead_console_shows(browser) -> 
         t0 = time.monotonic()
         assert console.stop() == 0
         # With a page attached it took 6.3 s: viser waited out its close timeout on the front
-        # door's pipes, which had been closed first and were read by nobody.
-        assert time.monotonic() - t0 < 2.0
+        # door's pipes, which had been closed first and were read by nobody. A clean stop takes
+        # ~0.5 s idle and took 2.4 s with three tests at once on two cores.
+        assert time.monotonic() - t0 < 4.0
         t0 = time.monotonic()
         page.locator("#ptwl-dead").wait_for(state="visible", timeout=8_000)
         assert time.monotonic() - t0 < 5.0

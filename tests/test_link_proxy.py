@@ -17,14 +17,15 @@ from latency.clock import SimulatedLink
 from latency.profile import LinkProfile
 from ptwl.launcher import ServiceProcess, running_proxy, running_server
 
-# The link releases each message on its own timer: the median release is within 1 ms of its
-# due time (a link that waits for a tick or the next arrival is late on most messages and fails
-# that). The tail is the host's: alone on an idle 2-core machine 99 % are within 5 ms (`python -m
-# bench.link` measures it), but in a suite that runs two tests at once the whole proxy process
-# sometimes waits 10-25 ms for a core (measured: p99 12 ms and 24 ms), so the tail is bounded by
-# what such a machine does, with a margin.
-MEDIAN_TOLERANCE_S = 0.001
-TAIL_TOLERANCE_S = 0.05
+# The link releases each message on its own timer, never early and in order (checked exactly).
+# How close to its due time is the host's as much as the link's: alone on an idle 2-core machine
+# the median is 0.05-0.2 ms and 99 % are within 5 ms, which `python -m bench.link` measures and
+# reports (holding_error_at_1s). In a suite that runs two tests at once beside a hogged core the
+# whole proxy process waits for a core now and then: measured, medians of 1.2-5.5 ms and a p99
+# of 111 ms. So here the median is held to 10 ms, which still fails a link that waits for the
+# next arrival or for a tick of 20 ms or more, and the tail to what such a machine does.
+MEDIAN_TOLERANCE_S = 0.01
+TAIL_TOLERANCE_S = 0.25
 # How long this test process may not be scheduled when it runs beside another test with a core
 # hogged (measured: 0.41 s), for timings taken here rather than in the link's record.
 HOST_STALL_S = 0.6

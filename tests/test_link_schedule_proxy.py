@@ -112,7 +112,7 @@ def test_a_drifting_delay_is_within_1_ms_of_the_schedule_at_10_points(
         assert hi - lo < 1e-4
         assert 0.0 <= r["realized_delay"] - r["configured_delay"] <= TAIL_TOLERANCE_S
     lateness = sorted(r["realized_delay"] - r["configured_delay"] for r in rows)
-    assert lateness[len(lateness) // 2] <= MEDIAN_TOLERANCE_S  # within 1 ms at most points
+    assert lateness[len(lateness) // 2] <= MEDIAN_TOLERANCE_S  # idle: within 1 ms (bench.link)
     assert rows[-1]["configured_delay"] - rows[0]["configured_delay"] == pytest.approx(
         drift * (rows[-1]["arrival"] - rows[0]["arrival"]), abs=1e-9
     )

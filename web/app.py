@@ -104,6 +104,7 @@ class ConsoleApp:
             api = ReplayApi(self.link.robot_url, self.link.token)
             replay = api.get(timeout_s=5.0)
             if replay is None:
+                api.close()
                 raise RuntimeError(f"{self.link.robot_url} is not a replay (GET /_replay did not answer)")
             self.playback = Playback(
                 self.server.gui,

@@ -80,6 +80,7 @@ class Playback(Worker):
         super().close()
         if self._reader.is_alive():  # indexing a long file: it checks `_closed` once done
             self._reader.join(timeout=READ_JOIN_S)
+        self._api.close()  # after its poller has stopped (joined above)
 
     def _read_record(self) -> None:
         """(its own thread) Index the recording; then mark its commands on the timeline and, if

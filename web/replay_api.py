@@ -11,12 +11,17 @@ from ptwl.guard.access import bearer_header
 class ReplayApi:
     def __init__(self, robot_url: str, token: str | None) -> None:
         self._url = robot_url + "/_replay"
-        self._headers = bearer_header(token)
+        # One client for the playhead's polls (4 a second): a bare `httpx.get` builds a new client
+        # and TLS context each time.
+        self._http = httpx.Client(headers=bearer_header(token))
+
+    def close(self) -> None:
+        self._http.close()
 
     def get(self, timeout_s: float = 2.0) -> dict[str, Any] | None:
         """The playhead; None if the replay did not answer (or the robot is not a replay)."""
         try:
-            response = httpx.get(self._url, headers=self._headers, timeout=timeout_s)
+            response = self._http.get(self._url, timeout=timeout_s)
         except httpx.HTTPError:
             return None
         return response.json() if response.status_code == 200 else None
@@ -24,7 +29,7 @@ class ReplayApi:
     def put(self, **change: Any) -> dict[str, Any] | None:
         """The change made: the playhead as the replay answered (None if it did not)."""
         try:
-            response = httpx.put(self._url, json=change, headers=self._headers, timeout=5.0)
+            response = self._http.put(self._url, json=change, timeout=5.0)
         except httpx.HTTPError:
             return None
         return response.json() if response.status_code == 200 else None
