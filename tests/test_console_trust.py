@@ -80,11 +80,13 @@ def test_the_age_keeps_counting_through_a_blackout_and_turns_amber_then_red(brow
     assert len({seq for _, _, seq, _ in quiet}) == 1
     per_s = len(quiet) / ((quiet[-1][0] - quiet[0][0]) / 1000.0)
     assert per_s >= 4.0, per_s
-    # ... growing with the page's own clock (within a tick), and the colour followed: amber past
-    # RTT + 1 s (RTT 0 here), red past RTT + 5 s.
+    # ... growing with the page's own clock, and the colour followed: amber past RTT + 1 s (RTT 0
+    # here), red past RTT + 5 s. Within a tick idle; with two tests at once beside a hogged core
+    # an update computed by a stalled console reached the page 0.41 s late, so within 0.6 s (a
+    # frozen age is seconds off by the end).
     t_first, age_first = quiet[0][0] / 1000.0, float(quiet[0][1])
     for t_ms, age, _, level in quiet:
-        assert float(age) - age_first == pytest.approx(t_ms / 1000.0 - t_first, abs=0.35)
+        assert float(age) - age_first == pytest.approx(t_ms / 1000.0 - t_first, abs=0.6)
         expected = "fresh" if float(age) <= 1.0 else "late" if float(age) <= 5.0 else "stale"
         assert level == expected, (age, level)
     assert float(quiet[-1][1]) > 6.0 and quiet[-1][3] == "stale"

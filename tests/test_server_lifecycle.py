@@ -66,3 +66,28 @@ def test_a_simulation_fault_ends_the_command_fault_and_the_server_keeps_serving(
         assert (
             robot.run("ptwl", translation=[0.0, 0.0, -0.01], duration=0.3, timeout=10).exit == "goal_reached"
         )
+
+
+def test_a_request_wakes_the_simulation_thread_instead_of_waiting_out_its_batch(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The sim thread sleeps between batches until the wall clock catches up; a request (a
+    command, a STOP) and close() cut that sleep short. With a 4 s batch the difference is plain
+    on any machine: answered in well under a second, not at the batch's end."""
+    import server.runner as runner_module
+    from server.commands import CommandBook
+
+    monkeypatch.setattr(runner_module, "BATCH_S", 4.0)
+    runner = runner_module.SimRunner("free_space", 0, 0.2, CommandBook(64, 100), lambda text: None)
+    runner.start()
+    try:
+        time.sleep(0.3)  # inside the first sleep: the first 4 s of sim time ran at once
+        for _ in range(3):
+            asked = time.monotonic()
+            sim_time = runner.call(lambda: runner.sim.time).result(timeout=10.0)
+            assert time.monotonic() - asked < 1.0
+            assert sim_time == pytest.approx(4.0, abs=1e-9)  # served between batches, none run early
+    finally:
+        asked = time.monotonic()
+        runner.close()
+        assert time.monotonic() - asked < 1.0 and not runner._thread.is_alive()
