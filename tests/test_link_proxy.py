@@ -22,13 +22,14 @@ from ptwl.launcher import ServiceProcess, running_proxy, running_server
 # the median is 0.05-0.2 ms and 99 % are within 5 ms, which `python -m bench.link` measures and
 # reports (holding_error_at_1s). In a suite that runs two tests at once beside a hogged core the
 # whole proxy process waits for a core now and then: measured, medians of 1.2-5.5 ms and a p99
-# of 111 ms. So here the median is held to 10 ms, which still fails a link that waits for the
-# next arrival or for a tick of 20 ms or more, and the tail to what such a machine does.
-MEDIAN_TOLERANCE_S = 0.01
-TAIL_TOLERANCE_S = 0.25
+# of 111 ms with a core hogged, 255 ms idle beside a browser test. So here the median is held to
+# 10 ms, which still fails a link that waits for the next arrival or for a tick of 20 ms or more
+# (planted: a 20 ms tick failed), and the tail to what such a machine does (HOST_STALL_S).
 # How long this test process may not be scheduled when it runs beside another test with a core
 # hogged (measured: 0.41 s), for timings taken here rather than in the link's record.
 HOST_STALL_S = 0.6
+MEDIAN_TOLERANCE_S = 0.01
+TAIL_TOLERANCE_S = HOST_STALL_S
 pytestmark = pytest.mark.usefixtures("no_gc_pauses")  # end-to-end timings are taken in this process
 
 
