@@ -109,7 +109,9 @@ def test_a_drifting_delay_is_within_1_ms_of_the_schedule_at_10_points(
         # The schedule's delay where the message arrived (its start known to within the PUT).
         lo, hi = (0.3 + drift * (r["arrival"] - start) for start in (t1, t0))
         assert lo - 1e-9 <= r["configured_delay"] <= hi + 1e-9
-        assert hi - lo < 1e-4
+        # The bracket is the PUT's own time times the drift: under 0.1 ms idle, 0.12 ms once
+        # with a core hogged; within 1 ms it still fails a drift left out (5 ms by the end).
+        assert hi - lo < 1e-3
         assert 0.0 <= r["realized_delay"] - r["configured_delay"] <= TAIL_TOLERANCE_S
     lateness = sorted(r["realized_delay"] - r["configured_delay"] for r in rows)
     assert lateness[len(lateness) // 2] <= MEDIAN_TOLERANCE_S  # idle: within 1 ms (bench.link)
