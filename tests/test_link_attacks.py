@@ -251,7 +251,7 @@ def test_link_memory_stays_flat_for_telemetry_clients_that_never_read() -> None:
             for sock in stalled:
                 sock.close()
         # Unbounded, ~10 MB. Bounded, under 4 MB idle; 4.13 MB once with a worker per core and a
-        # core hogged (the allocator's arenas, not queued states), so 6 MB.
+        # core hogged, so 6 MB.
         assert grown_mb < 6.0, grown_mb
         states = [s for s in seqs if s is not None]
         assert len(states) >= 45 and all(b - a == 1 for a, b in itertools.pairwise(states))
