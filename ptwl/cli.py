@@ -19,12 +19,13 @@ import sys
 from collections.abc import Generator
 from pathlib import Path
 
+from ptwl.cli_common import add_access_flags, run_command
+from ptwl.proxy_cli import add_proxy_parser
 from ptwl.recording_cli import add_recording_parsers
 from ptwl.sweep_cli import add_sweep_parser
 from ptwl.task_cli import add_task_parser
 from robot_sim.behaviors import Behavior, BehaviorReport, behavior_for
 from robot_sim.behaviors.ptwl import Ptwl
-from robot_sim.errors import RobotSimError
 from robot_sim.params import PtwlParams
 from robot_sim.policies import Machine, Step
 from robot_sim.policies.sleeve_on_peg import SleeveOnPeg
@@ -172,30 +173,6 @@ def cmd_serve(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_proxy(args: argparse.Namespace) -> int:
-    # Imported here: only this command needs the link (aiohttp and its delay line).
-    from latency.serve import ProxyConfig, serve_proxy
-
-    serve_proxy(
-        ProxyConfig(
-            upstream=args.upstream,
-            host=args.host,
-            port=args.port,
-            profile=args.profile,
-            schedule=args.schedule,
-            ground_node=args.ground_node,
-            robot_node=args.robot_node,
-            uplink=args.uplink,
-            downlink=args.downlink,
-            record=args.record,
-            token=args.token or None,
-            allow_hosts=tuple(args.allow_host),
-            allow_origins=tuple(args.allow_origin),
-        )
-    )
-    return 0
-
-
 def cmd_scenes(_: argparse.Namespace) -> int:
     for name, scene in SCENES.items():
         print(f"{name:15s} {scene.description}")
@@ -250,7 +227,7 @@ def build_parser() -> argparse.ArgumentParser:
     console.add_argument("--port", type=int, default=8080)
     console.add_argument("--token", default=os.environ.get("PTWL_TOKEN"), help="the robot's access token")
     console.add_argument("--replay", action="store_true", help=argparse.SUPPRESS)  # started by `ptwl replay`
-    _access_flags(console, hosts=False)
+    add_access_flags(console, hosts=False)
     console.set_defaults(func=cmd_console)
     serve = sub.add_parser("serve", help="run the robot server (REST + WebSocket telemetry)")
     serve.add_argument("--host", default="127.0.0.1", help="bind address (non-loopback needs --token)")
@@ -273,32 +250,9 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"[s] refuse commands whose sent_at leads the robot's clock by more (0-{MAX_SENT_AT_SKEW_S:g})",
     )
     serve.add_argument("--fault-injection", action="store_true", help=argparse.SUPPRESS)
-    _access_flags(serve)
+    add_access_flags(serve)
     serve.set_defaults(func=cmd_serve)
-    proxy = sub.add_parser("proxy", help="run the delay-line link between operator and robot")
-    proxy.add_argument("--upstream", default="http://127.0.0.1:8000", help="the robot server")
-    proxy.add_argument("--host", default="127.0.0.1")
-    proxy.add_argument("--port", type=int, default=8001, help="0 picks a free port (printed)")
-    proxy.add_argument("--profile", help="a named profile from config/links.toml")
-    proxy.add_argument(
-        "--schedule",
-        type=Path,
-        metavar="FILE",
-        help="contact windows, delay over time and rates: a .toml schedule, or an ION contact plan "
-        "(`a contact`/`a range` lines); over the profile's own",
-    )
-    proxy.add_argument("--ground-node", type=int, default=1, help="an ION plan's ground node (default 1)")
-    proxy.add_argument("--robot-node", type=int, default=2, help="an ION plan's robot node (default 2)")
-    proxy.add_argument("--uplink", type=float, help="[s] one-way delay, operator to robot")
-    proxy.add_argument("--downlink", type=float, help="[s] one-way delay, robot to operator")
-    proxy.add_argument(
-        "--record", type=Path, help="record each message's delay: MCAP if FILE ends in .mcap, else JSON lines"
-    )
-    proxy.add_argument(
-        "--token", default=os.environ.get("PTWL_TOKEN"), help="needed on every route and socket (PTWL_TOKEN)"
-    )
-    _access_flags(proxy)
-    proxy.set_defaults(func=cmd_proxy)
+    add_proxy_parser(sub)
     add_task_parser(sub)
     add_sweep_parser(sub)
     add_recording_parsers(sub)
@@ -307,28 +261,8 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _access_flags(parser: argparse.ArgumentParser, hosts: bool = True) -> None:
-    """Who else may reach a server: the Host and Origin checks' allow-lists (ptwl/guard/access.py)."""
-    if hosts:
-        parser.add_argument(
-            "--allow-host", action="append", default=[], metavar="NAME", help="answer to this Host name too"
-        )
-    parser.add_argument(
-        "--allow-origin",
-        action="append",
-        default=[],
-        metavar="URL",
-        help="let browser pages from this origin in (e.g. https://ops.example:8443)",
-    )
-
-
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    try:
-        return int(args.func(args))
-    except (RobotSimError, ConfigError, OSError, ValueError) as err:
-        print(f"ptwl: {err}", file=sys.stderr)
-        return 2
+    return run_command(build_parser().parse_args(argv))
 
 
 if __name__ == "__main__":

@@ -15,6 +15,9 @@ from dataclasses import dataclass
 import httpx
 
 URL_PATTERN = re.compile(r" on (http://\S+)")
+# The module each command starts from: a command with an entry point of its own imports only what
+# it needs (the link: 0.7 s of CPU instead of 1.6 s per start); the rest go through `ptwl.cli`.
+ENTRY_POINTS = {"proxy": "ptwl.proxy_cli"}
 
 
 def free_port() -> int:
@@ -76,7 +79,7 @@ def start(
     `ServiceProcess.stop()`.
 
     With `echo`, the child's output is also printed, each line prefixed with it."""
-    cmd = [sys.executable, "-m", "ptwl.cli", *ptwl_args]
+    cmd = [sys.executable, "-m", ENTRY_POINTS.get(ptwl_args[0], "ptwl.cli"), *ptwl_args]
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     # Own process group: a terminal's Ctrl-C (sent to the whole foreground group) reaches only the
     # parent, which then stops each child once; a second signal would make uvicorn force-exit.

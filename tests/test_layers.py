@@ -10,6 +10,8 @@ from pathlib import Path
 
 import pytest
 
+from ptwl.launcher import ENTRY_POINTS
+
 ROOT = Path(__file__).resolve().parents[1]
 # Bottom to top. ptwl_config is the `config/` directory's package; guard, recording and
 # experiments live under the ptwl namespace (ptwl/<name>/), the rest of ptwl (the command line,
@@ -142,3 +144,21 @@ def test_the_console_checks_commands_without_fastapi_or_the_server() -> None:
         [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=60
     )
     assert result.stdout.strip() == "[]", result.stderr
+
+
+def test_the_links_entry_point_imports_only_the_link() -> None:
+    """What the launcher starts for every link: parsing its arguments and loading the link
+    itself reaches none of the robot's physics (robot_sim, MuJoCo, the numba-compiled tick), which
+    cost each start ~0.9 s of CPU."""
+    robot = "{'robot_sim', 'mujoco', 'numba', 'server', 'web'}"
+    heavy = f"sorted({{m.split('.')[0] for m in sys.modules}} & {robot})"
+    code = (
+        "import sys, ptwl.proxy_cli, latency.serve\n"
+        "ptwl.proxy_cli.add_proxy_parser(__import__('argparse').ArgumentParser().add_subparsers())\n"
+        f"print({heavy})"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=60
+    )
+    assert result.stdout.strip() == "[]", result.stdout + result.stderr
+    assert ENTRY_POINTS["proxy"] == "ptwl.proxy_cli"

@@ -102,9 +102,10 @@ def test_control_api_token(server: ServiceProcess) -> None:
         (["--profile", "mars"], "unknown link profile 'mars'"),
     ],
 )
-def test_proxy_refuses_to_start(args: list[str], message: str) -> None:
+@pytest.mark.parametrize("entry", ["ptwl.cli", "ptwl.proxy_cli"])  # `ptwl proxy`; what the launcher starts
+def test_proxy_refuses_to_start(args: list[str], message: str, entry: str) -> None:
     result = subprocess.run(
-        [sys.executable, "-m", "ptwl.cli", "proxy", "--port", "0", *args],
+        [sys.executable, "-m", entry, "proxy", "--port", "0", *args],
         capture_output=True,
         text=True,
         timeout=60,
