@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from ptwl.launcher import ENTRY_POINTS
+from ptwl.launcher import running_proxy
 
 ROOT = Path(__file__).resolve().parents[1]
 # Bottom to top. ptwl_config is the `config/` directory's package; guard, recording and
@@ -161,4 +161,6 @@ def test_the_links_entry_point_imports_only_the_link() -> None:
         [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=60
     )
     assert result.stdout.strip() == "[]", result.stdout + result.stderr
-    assert ENTRY_POINTS["proxy"] == "ptwl.proxy_cli"
+    with running_proxy("http://127.0.0.1:9") as link:  # and it is what the launcher starts
+        args = link.process.args
+        assert isinstance(args, list) and args[1:3] == ["-m", "ptwl.proxy_cli"], args
