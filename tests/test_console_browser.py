@@ -135,8 +135,9 @@ def test_two_second_round_trip_shows_intent_at_once_and_the_robot_later(browser,
     assert moved_after is not None and moved_after - commanded_after >= 1.0
     assert moved_after is not None and moved_after >= 1.0  # the robot's port moves a round trip later
     # "robot state is ~1 s old": never less than the downlink's 1 s, and more only by the console's
-    # own lag in drawing (0.0-0.1 s on an idle machine; 0.30 s measured with a core hogged).
-    assert 1.0 - 0.05 <= age <= 1.0 + 0.5
+    # own lag in drawing (0.0-0.1 s on an idle machine; 0.30 s, and once 0.60 s, measured with a
+    # core hogged beside another browser file). An age that counted the round trip (2 s) fails.
+    assert 1.0 - 0.05 <= age <= 1.0 + 0.75
 
 
 def test_console_says_when_the_robot_restarts_and_reconnects(browser) -> None:  # type: ignore[no-untyped-def]
