@@ -201,14 +201,22 @@ class RobotClient:
             self.base_url.replace("http://", "ws://", 1).replace("https://", "wss://", 1) + "/api/telemetry"
         )
 
-    def telemetry(self, open_timeout: float = 10.0, idle_s: float | None = None) -> Iterator[dict[str, Any]]:
+    def telemetry(
+        self, open_timeout: float = 10.0, idle_s: float | None = None, close_timeout: float = 10.0
+    ) -> Iterator[dict[str, Any]]:
         """State, command and frames messages as they arrive; stops when the server closes. With `idle_s`,
-        `{"type": "idle"}` comes whenever nothing arrived for that long (so a reader can stop)."""
+        `{"type": "idle"}` comes whenever nothing arrived for that long (so a reader can stop).
+        A reader that stops early waits at most `close_timeout` [s] for the far end to answer
+        its close (websockets' default, 10 s)."""
         headers = bearer_header(self.token) or None
         # Keepalive pings off: over a multi-second link they would time out; the age of the
         # telemetry (`sent_at`) is the liveness signal instead.
         with connect(
-            self.telemetry_url(), additional_headers=headers, open_timeout=open_timeout, ping_interval=None
+            self.telemetry_url(),
+            additional_headers=headers,
+            open_timeout=open_timeout,
+            close_timeout=close_timeout,
+            ping_interval=None,
         ) as ws:
             while True:
                 try:

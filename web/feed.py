@@ -20,6 +20,14 @@ from web.worker import Worker
 
 RECONNECT_S = 1.0
 RECEIVE_TIMEOUT_S = 0.5  # how often a quiet feed checks whether it should stop
+# [s] a closing feed waits this long for the far end to answer its WebSocket close. websockets'
+# default (10 s) outlived the thread's join: a robot or link too busy to answer (once, with a core
+# hogged) left the thread running after close().
+CLOSE_TIMEOUT_S = 1.0
+# [s] slack on top of those waits, for a thread that is ready but not yet scheduled on a loaded
+# machine. (Not covered: a close() during a reconnect's opening handshake, up to its 5 s
+# open_timeout against a link that accepts and never answers; the thread is a daemon.)
+SCHEDULING_SLACK_S = 1.5
 
 
 class TelemetryFeed(Worker):
@@ -36,8 +44,11 @@ class TelemetryFeed(Worker):
         self._on_state = on_state
         self._on_command = on_command
         self._on_link = on_link
-        # close() returns within one receive timeout (or one reconnect wait).
-        super().__init__("ptwl-telemetry", join_timeout_s=RECEIVE_TIMEOUT_S + RECONNECT_S + 1.0)
+        # close() returns within one receive timeout and one close handshake (a reconnect's wait
+        # ends at once: it waits on the closing event).
+        super().__init__(
+            "ptwl-telemetry", join_timeout_s=RECEIVE_TIMEOUT_S + CLOSE_TIMEOUT_S + SCHEDULING_SLACK_S
+        )
         self.connected = False
         self.reconnects = 0
         self._frames = FramesMirror()
@@ -49,7 +60,9 @@ class TelemetryFeed(Worker):
     def _run(self) -> None:
         while not self._closed.is_set():
             try:
-                for message in self._client.telemetry(open_timeout=5.0, idle_s=RECEIVE_TIMEOUT_S):
+                for message in self._client.telemetry(
+                    open_timeout=5.0, idle_s=RECEIVE_TIMEOUT_S, close_timeout=CLOSE_TIMEOUT_S
+                ):
                     arrived = time.time()
                     if self._closed.is_set():
                         return
