@@ -162,7 +162,7 @@ class _ScriptedRobot:
         self._runner, self._script = runner, script
         self.frames_asked = 0
 
-    def telemetry(self, open_timeout: float, idle_s: float) -> Iterator[dict[str, Any]]:
+    def telemetry(self, open_timeout: float, idle_s: float, close_timeout: float) -> Iterator[dict[str, Any]]:
         yield from self._script
         while True:
             time.sleep(0.02)  # only so the feed does not spin while the test waits
