@@ -606,7 +606,8 @@ def test_the_twin_idles_on_a_short_link_and_runs_on_a_long_one(console: ConsoleA
 
 def test_the_ghost_moves_at_once_on_send_and_its_error_is_judged(server: ServiceProcess) -> None:
     """Behind a 1 s + 1 s link: the twin's port starts moving on Send, before the delayed picture
-    does (2 s later), and once telemetry catches up its prediction error is under 2 mm."""
+    does (2 s later), and once telemetry catches up its prediction error is a few mm at most (the
+    2 mm figure, on a virtual clock: test_twin.py)."""
     with running_proxy(server.url) as link:
         httpx.put(link.url + "/_link/profile", json={"uplink": 1.0, "downlink": 1.0}).raise_for_status()
         app = ConsoleApp(link.url, port=free_port())
@@ -658,7 +659,11 @@ def test_the_ghost_moves_at_once_on_send_and_its_error_is_judged(server: Service
     assert port_at_send is not None and delayed_port is not None
     assert float(np.linalg.norm(delayed_port[0] - port_at_send[0])) < 1e-4
     assert moved_after_s < 1.0
-    assert summary is not None and summary[1] < 0.002
+    # On this wall clock a busy CPU shifts when the command really reaches the robot against when
+    # the twin starts it (the link and the robot are starved too): 5 s max error 3.2 mm with three
+    # test files at once on 2 cores, 3.9 mm with a core hogged and a profiler beside it, against
+    # 2 mm before. A twin that ignored the uplink or stood still is tens of mm off (the move is 40).
+    assert summary is not None and summary[1] < 0.006
 
 
 def test_preview_says_how_a_move_ends_and_step_sends_its_first_part(

@@ -150,7 +150,10 @@ def test_a_queued_relative_command_is_drawn_relative_then_where_the_robot_resolv
     set_link(link, uplink=0.5, downlink=0.5)
     inputs_for(page, "Frame").first.click()
     page.get_by_role("option", name="base").click()
-    set_fields(page, "Duration [s]", 1.5)
+    # The first runs 3.5 s, so the second is still queued (unresolved) when the page draws it: with
+    # 1.5 s the robot resolved it (0.5 s up, 1.5 s, 0.5 s down) before a loaded browser had typed
+    # and sent it (seen once with a core hogged).
+    set_fields(page, "Duration [s]", 3.5)
     y0 = port_mm(page)[1]
     set_fields(page, "Translation [mm]", 0, 60, 0)
     send(page, "Send cmd")
