@@ -21,8 +21,9 @@ from web.worker import Worker
 RECONNECT_S = 1.0
 RECEIVE_TIMEOUT_S = 0.5  # how often a quiet feed checks whether it should stop
 # [s] a closing feed waits this long for the far end to answer its WebSocket close. websockets'
-# default (10 s) outlived the thread's join: a robot or link too busy to answer (once, with a core
-# hogged) left the thread running after close().
+# default (10 s) outlives the thread's join when the far end does not answer (shown with a peer
+# that never does: tests/test_threads_owned.py); the likely cause, not confirmed, of the thread
+# once found running after close() with a core hogged.
 CLOSE_TIMEOUT_S = 1.0
 # [s] slack on top of those waits, for a thread that is ready but not yet scheduled on a loaded
 # machine. (Not covered: a close() during a reconnect's opening handshake, up to its 5 s
