@@ -138,6 +138,9 @@ def test_markup_in_a_crafted_recording_shows_as_text_in_replay(browser: object, 
         page = _load(browser, replay.url, (1100, 900), csp=True)
         try:
             page.locator('#ptwl-replay[data-playing="0"]').wait_for(state="attached", timeout=60_000)
+            # The first state drawn: the page is up (this page keeps its script policy, so it waits
+            # by locators). Pressed before it, once with a core hogged, End never seeked.
+            page.locator('#ptwl-telemetry:not([data-seq=""])').wait_for(state="attached", timeout=30_000)
             slider = page.get_by_role("slider")
             slider.focus()
             slider.press("End")  # every command event played past
