@@ -8,9 +8,10 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import IO, Any, Protocol
 
 import httpx
 
@@ -18,6 +19,40 @@ URL_PATTERN = re.compile(r" on (http://\S+)")
 # The module each command starts from: a command with an entry point of its own imports only what
 # it needs (the link: 0.7 s of CPU instead of 1.6 s per start); the rest go through `ptwl.cli`.
 ENTRY_POINTS = {"proxy": "ptwl.proxy_cli"}
+
+
+class ChildProcess(Protocol):
+    """What the launcher and its callers use of a started service: `subprocess.Popen`'s part."""
+
+    pid: int
+    returncode: int | None
+    stdout: IO[str] | None
+
+    @property
+    def args(self) -> Any: ...  # the command line it was started with
+    def poll(self) -> int | None: ...
+    def wait(self, timeout: float | None = None) -> int: ...
+    def send_signal(self, sig: int) -> None: ...
+    def kill(self) -> None: ...
+
+
+def popen(module: str, args: list[str], env: dict[str, str]) -> ChildProcess:
+    """`python -m MODULE ARGS`, its output (stdout and stderr) on one text pipe."""
+    # Own process group: a terminal's Ctrl-C (sent to the whole foreground group) reaches only the
+    # parent, which then stops each child once; a second signal would make uvicorn force-exit.
+    return subprocess.Popen(
+        [sys.executable, "-m", module, *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=env,
+        process_group=0,
+    )
+
+
+# How `start` makes a child: a fresh interpreter. The test suite puts a fork of a preloaded one here
+# (tests/zygote.py), which starts the same main with the same argv, environment and process group.
+SPAWN: Callable[[str, list[str], dict[str, str]], ChildProcess] = popen
 
 
 def free_port() -> int:
@@ -30,7 +65,7 @@ def free_port() -> int:
 @dataclass
 class ServiceProcess:
     url: str
-    process: subprocess.Popen[str]
+    process: ChildProcess
     output: list[str]
     pump: threading.Thread | None = None  # reads its output; ends when the child does
 
@@ -79,13 +114,8 @@ def start(
     `ServiceProcess.stop()`.
 
     With `echo`, the child's output is also printed, each line prefixed with it."""
-    cmd = [sys.executable, "-m", ENTRY_POINTS.get(ptwl_args[0], "ptwl.cli"), *ptwl_args]
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-    # Own process group: a terminal's Ctrl-C (sent to the whole foreground group) reaches only the
-    # parent, which then stops each child once; a second signal would make uvicorn force-exit.
-    process = subprocess.Popen(
-        cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env, process_group=0
-    )
+    process = SPAWN(ENTRY_POINTS.get(ptwl_args[0], "ptwl.cli"), list(ptwl_args), env)
     output: list[str] = []
     found = threading.Event()
     url: list[str] = []
@@ -136,7 +166,7 @@ def running(
         server.stop()
 
 
-def _stop(process: "subprocess.Popen[str]", sig: int = signal.SIGINT, timeout: float = 15.0) -> int:
+def _stop(process: ChildProcess, sig: int = signal.SIGINT, timeout: float = 15.0) -> int:
     """Signal a child and wait for it; kill it if it has not exited within `timeout`. Its exit code."""
     if process.poll() is None:
         process.send_signal(sig)

@@ -6,10 +6,12 @@ from collections.abc import Iterator
 
 import pytest
 
+import ptwl.launcher
 from ptwl.launcher import ServiceProcess, running_console, running_proxy, running_server
 from robot_sim.warm import warm_up
 from server.client import RobotClient
 from tests.frame_cap import CappedBrowser
+from tests.zygote import Zygote
 from web.browser import chromium_available, launch
 
 
@@ -24,6 +26,22 @@ def own_state_home(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
         os.environ.pop("XDG_STATE_HOME", None)
     else:
         os.environ["XDG_STATE_HOME"] = before
+
+
+@pytest.fixture(scope="session", autouse=True)
+def forked_services(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Zygote | None]:
+    """The services `ptwl.launcher` starts are forked from a preloaded process (tests/zygote.py):
+    each start then skips ~2-3 CPU-s of imports. PTWL_TEST_FORK=0 starts fresh interpreters."""
+    if os.environ.get("PTWL_TEST_FORK") == "0":
+        yield None
+        return
+    zygote = Zygote(str(tmp_path_factory.mktemp("zygote") / "socket"))
+    ptwl.launcher.SPAWN = zygote.spawn
+    try:
+        yield zygote
+    finally:
+        ptwl.launcher.SPAWN = ptwl.launcher.popen
+        zygote.close()
 
 
 @pytest.fixture(scope="module")

@@ -12,6 +12,7 @@ import numpy as np
 from PIL import Image
 
 from ptwl.launcher import ServiceProcess
+from tests.frame_cap import FRAME_CAP_HZ
 
 POLL_MS = 50
 """How often a waiting test reads the page. Playwright's default, every animation frame, makes the
@@ -28,9 +29,15 @@ def until(page, predicate_js: str, timeout: float = 30_000):  # type: ignore[no-
     return page.wait_for_function(predicate_js, timeout=timeout, polling=POLL_MS)
 
 
-def open_console(browser: object, url: str, control: bool = True, viewport: tuple[int, int] = (1100, 720)):  # type: ignore[no-untyped-def]
+def open_console(  # type: ignore[no-untyped-def]
+    browser: object,
+    url: str,
+    control: bool = True,
+    viewport: tuple[int, int] = (1100, 720),
+    frame_cap_hz: float = FRAME_CAP_HZ,
+):
     """A page on the console; with `control`, it takes control (one commander at a time)."""
-    return _ready(_load(browser, url, viewport), control)
+    return _ready(_load(browser, url, viewport, frame_cap_hz=frame_cap_hz), control)
 
 
 def open_consoles(browser: object, url: str, *controls: bool) -> list:  # type: ignore[type-arg]
@@ -40,12 +47,18 @@ def open_consoles(browser: object, url: str, *controls: bool) -> list:  # type: 
     return [_ready(page, control) for page, control in zip(pages, controls, strict=True)]
 
 
-def _load(browser: object, url: str, viewport: tuple[int, int], csp: bool = False):  # type: ignore[no-untyped-def]
+def _load(  # type: ignore[no-untyped-def]
+    browser: object,
+    url: str,
+    viewport: tuple[int, int],
+    csp: bool = False,
+    frame_cap_hz: float = FRAME_CAP_HZ,
+):
     """A page on `url`. The console's script policy forbids eval, which Playwright's string
     predicates (wait_for_function) use; so pages bypass it unless `csp` (tests of the policy
     itself, which wait by locators instead)."""
     size = {"width": viewport[0], "height": viewport[1]}
-    page = browser.new_page(viewport=size, bypass_csp=not csp)  # type: ignore[attr-defined]
+    page = browser.new_page(viewport=size, bypass_csp=not csp, frame_cap_hz=frame_cap_hz)  # type: ignore[attr-defined]
     page.goto(url, wait_until="commit")
     return page
 

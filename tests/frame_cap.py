@@ -9,6 +9,12 @@ process takes ~49%, at 1 frame/s ~5%. The browser tests read the view's mirror i
 pixels after waiting for them, never the frame rate, so they run capped; the frame rate itself
 is measured uncapped by `python -m bench.console`.
 
+The cap is 5 frames/s: while the arm moves, a stack and its page took 121% of a core at 10 (GPU
+process 43%, renderer 31%) and 92% at 5 (22%, 23%); the browser files took 795 CPU-s in 7:14 at
+10 and 735 in 6:53 at 5 (2 workers). Below that the DOM's updates, which viser applies on the same
+frames, come too seldom for the checks of what the page shows when (2 frames/s broke them). A
+test of an update rate opens its page at a higher cap (`CappedBrowser.new_page(frame_cap_hz=)`).
+
 The cap wraps the page's requestAnimationFrame (viser's render loop and its message drain both
 run on it). Playwright's actionability checks run in an isolated world, which this does not
 touch; `wait_for_function` runs in the page's world but polls on a timer here (console_page.py's
@@ -22,10 +28,10 @@ scaled up by the compositor: screenshots keep their size and the markers their c
 
 from typing import Any
 
-FRAME_CAP_HZ = 10
+FRAME_CAP_HZ = 5
 VIEW_DPR = 0.5
 
-CAP_SCRIPT = """{
+CAP_TEMPLATE = """{
   try {  // not on pages whose address cannot be rewritten (about:blank): the cap still runs
     const query = new URLSearchParams(location.search);
     if (window.top === window && location.protocol.startsWith('http') && !query.has('fixedDpr')) {
@@ -60,7 +66,13 @@ CAP_SCRIPT = """{
     return id;
   };
   window.cancelAnimationFrame = (id) => { waiting.delete(id); running.delete(id); };
-}""".replace("MIN_INTERVAL_MS", str(1000 // FRAME_CAP_HZ)).replace("VIEW_DPR", str(VIEW_DPR))
+}"""
+
+
+def cap_script(frame_cap_hz: float = FRAME_CAP_HZ) -> str:
+    """The init script that caps a page at `frame_cap_hz` frames a second, at VIEW_DPR."""
+    interval_ms = str(int(1000 / frame_cap_hz))
+    return CAP_TEMPLATE.replace("MIN_INTERVAL_MS", interval_ms).replace("VIEW_DPR", str(VIEW_DPR))
 
 
 class CappedBrowser:
@@ -69,9 +81,9 @@ class CappedBrowser:
     def __init__(self, browser: Any) -> None:
         self._browser = browser
 
-    def new_page(self, **kwargs: Any) -> Any:
+    def new_page(self, frame_cap_hz: float = FRAME_CAP_HZ, **kwargs: Any) -> Any:
         page = self._browser.new_page(**kwargs)
-        page.add_init_script(CAP_SCRIPT)
+        page.add_init_script(cap_script(frame_cap_hz))
         return page
 
     def __getattr__(self, name: str) -> Any:

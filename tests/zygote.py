@@ -1,0 +1,246 @@
+"""A preloaded process that forks the suite's `ptwl` services instead of starting each one from a
+fresh interpreter.
+
+Why: a robot server spends ~2.1 CPU-s importing (numba's compiled tick, MuJoCo, FastAPI) before
+it serves, a console ~3.3 CPU-s, and the suite starts a few dozen of them on a 2-core machine
+where its time is its CPU. Forked from a process that imported them once, a service starts with
+those imports done and runs the same `python -m MODULE ARGS` main as `ptwl.launcher` would have
+run: its own argv, environment, working directory, process group and output pipe; a real
+process serving through real uvicorn. Only the imports are shared, and they are the ones made
+before any test ran.
+
+The protocol, over a Unix socket: a request is one JSON line (`module`, `args`, `env`, `cwd`) sent
+with one file descriptor, the write end of the child's output pipe; the zygote answers with a
+line `{"pid": N}`, then, when the child has exited, `{"returncode": C}` (negative: the signal that
+ended it, as `subprocess` says) and closes the connection.
+
+The zygote is single-threaded (a thread holding a lock at fork would leave the child's copy of
+that lock held forever), so it learns of exits from SIGCHLD through `signal.set_wakeup_fd`.
+"""
+
+import atexit
+import contextlib
+import gc
+import importlib
+import json
+import os
+import runpy
+import selectors
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+import traceback
+from typing import Any
+
+# What the services import: loaded once, here, before the zygote says it is ready.
+PRELOAD = ("ptwl.cli", "ptwl.proxy_cli", "server.serve", "web.cli", "latency.serve")
+MAX_REQUEST_BYTES = 1 << 20  # a request carries an environment: kilobytes, never a megabyte
+
+
+def serve(path: str) -> None:
+    """Import PRELOAD, listen on `path`, fork a child per request until stdin closes."""
+    gc.disable()  # no collection leaves holes in the pages the children share
+    for module in PRELOAD:
+        importlib.import_module(module)
+    # The imports' objects into the permanent generation, which no child's collection walks: a
+    # child's garbage collection then touches (and so copies) none of them, where a fresh
+    # interpreter's walks all it imported (Python's `gc.freeze` advice for fork).
+    gc.freeze()
+    assert threading.active_count() == 1, f"a preload started a thread: {threading.enumerate()}"
+    wake_r, wake_w = os.pipe()
+    os.set_blocking(wake_w, False)
+    signal.set_wakeup_fd(wake_w)
+    signal.signal(signal.SIGCHLD, lambda *_: None)  # a handler, so the wakeup fd hears it
+    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    listener.bind(path)
+    listener.listen(16)
+    children: dict[int, socket.socket] = {}  # pid -> the connection that asked for it
+    selector = selectors.DefaultSelector()
+    selector.register(listener, selectors.EVENT_READ, "accept")
+    selector.register(wake_r, selectors.EVENT_READ, "child")
+    selector.register(sys.stdin, selectors.EVENT_READ, "parent")  # closed: the suite has ended
+    print("ready", flush=True)
+    while True:
+        for key, _ in selector.select():
+            if key.data == "parent":
+                return
+            if key.data == "accept":
+                conn, _ = listener.accept()
+                pid = _fork_child(conn, [listener, *children.values()], (wake_r, wake_w, selector.fileno()))
+                if pid is not None:
+                    children[pid] = conn
+            else:
+                os.read(wake_r, 4096)
+                _reap(children)
+
+
+def _fork_child(
+    conn: socket.socket, others: list[socket.socket], fds_to_close: tuple[int, ...]
+) -> int | None:
+    message, fds, _, _ = socket.recv_fds(conn, MAX_REQUEST_BYTES, 1)
+    if len(fds) != 1:
+        conn.close()
+        return None
+    request = json.loads(message)
+    pid = os.fork()
+    if pid == 0:  # never returns
+        for sock in (*others, conn):
+            sock.close()
+        for fd in fds_to_close:  # the zygote's wakeup pipe and selector
+            os.close(fd)
+        _run_child(request, fds[0])
+    os.close(fds[0])
+    conn.sendall(json.dumps({"pid": pid}).encode() + b"\n")
+    return pid
+
+
+def _run_child(request: dict[str, Any], output_fd: int) -> None:
+    """(in the child) Become `python -m MODULE ARGS` as the launcher would have started it."""
+    code: int = 1
+    try:
+        gc.enable()
+        signal.set_wakeup_fd(-1)
+        signal.signal(signal.SIGCHLD, signal.SIG_DFL)
+        os.setpgid(0, 0)  # its own process group, as the launcher's process_group=0
+        devnull = os.open(os.devnull, os.O_RDONLY)
+        os.dup2(devnull, 0)
+        os.dup2(output_fd, 1)
+        os.dup2(output_fd, 2)
+        for fd in (devnull, output_fd):
+            os.close(fd)
+        sys.stdin = open(0, closefd=False)  # noqa: SIM115 (fd 0 is the process's, for its life)
+        sys.stdout.reconfigure(line_buffering=True)  # type: ignore[union-attr]
+        os.chdir(request["cwd"])
+        os.environ.clear()
+        os.environ.update(request["env"])
+        sys.argv = [request["module"], *request["args"]]
+        runpy.run_module(request["module"], run_name="__main__", alter_sys=True)
+        code = 0
+    except SystemExit as stop:
+        code = stop.code if isinstance(stop.code, int) else (0 if stop.code is None else 1)
+        if stop.code is not None and not isinstance(stop.code, int):
+            print(stop.code, file=sys.stderr)
+    except KeyboardInterrupt:
+        traceback.print_exc()
+        code = -signal.SIGINT  # as an interpreter ends on an unhandled Ctrl-C: by the signal
+    except BaseException:
+        traceback.print_exc()
+    finally:
+        try:
+            atexit._run_exitfuncs()
+            sys.stdout.flush()
+            sys.stderr.flush()
+        finally:
+            if code < 0:
+                signal.signal(-code, signal.SIG_DFL)
+                os.kill(os.getpid(), -code)
+            os._exit(code)
+
+
+def _reap(children: dict[int, socket.socket]) -> None:
+    while children:
+        try:
+            pid, status = os.waitpid(-1, os.WNOHANG)
+        except ChildProcessError:
+            return
+        if pid == 0:
+            return
+        conn = children.pop(pid, None)
+        if conn is not None:
+            with contextlib.suppress(OSError):  # the asker has gone: nobody to tell
+                conn.sendall(json.dumps({"returncode": os.waitstatus_to_exitcode(status)}).encode() + b"\n")
+            conn.close()
+
+
+class ForkedProcess:
+    """The parts of `subprocess.Popen` the launcher and the tests use, for a zygote's child."""
+
+    def __init__(self, args: list[str], conn: socket.socket, stdout: Any) -> None:
+        self.args = args
+        self._conn = conn
+        self._buffer = b""
+        self.stdout = stdout
+        self.returncode: int | None = None
+        self.pid = int(self._message(None)["pid"])
+
+    def _message(self, timeout: float | None) -> dict[str, Any]:
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while b"\n" not in self._buffer:
+            left = None if deadline is None else max(0.0, deadline - time.monotonic())
+            self._conn.settimeout(left)
+            try:
+                chunk = self._conn.recv(4096)
+            except (TimeoutError, BlockingIOError):  # (a timeout of 0 is a non-blocking read)
+                raise subprocess.TimeoutExpired(self.args, timeout or 0.0) from None
+            if not chunk:  # its child may live on, unwatched: say so rather than guess an exit
+                raise RuntimeError(f"the zygote that forked pid {self.pid} has gone")
+            self._buffer += chunk
+        line, self._buffer = self._buffer.split(b"\n", 1)
+        return dict(json.loads(line))
+
+    def poll(self) -> int | None:
+        if self.returncode is None:
+            try:
+                self.returncode = int(self._message(0.0)["returncode"])
+            except subprocess.TimeoutExpired:
+                return None
+            self._conn.close()
+        return self.returncode
+
+    def wait(self, timeout: float | None = None) -> int:
+        if self.returncode is None:
+            self.returncode = int(self._message(timeout)["returncode"])
+            self._conn.close()
+        return self.returncode
+
+    def send_signal(self, sig: int) -> None:
+        if self.poll() is None:  # never a signal to a pid that may have been reused
+            os.kill(self.pid, sig)
+
+    def terminate(self) -> None:
+        self.send_signal(signal.SIGTERM)
+
+    def kill(self) -> None:
+        self.send_signal(signal.SIGKILL)
+
+
+class Zygote:
+    """A running zygote and the spawner that forks from it (`ptwl.launcher.SPAWNER`)."""
+
+    def __init__(self, path: str) -> None:
+        self.path = path
+        self.process = subprocess.Popen(
+            [sys.executable, "-m", "tests.zygote", path],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        assert self.process.stdout is not None
+        ready = self.process.stdout.readline()
+        if ready.strip() != "ready":
+            self.process.kill()
+            raise RuntimeError(f"the zygote did not start: {ready!r}")
+
+    def spawn(self, module: str, args: list[str], env: dict[str, str]) -> ForkedProcess:
+        out_r, out_w = os.pipe()
+        conn = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        try:
+            conn.connect(self.path)
+            request = {"module": module, "args": args, "env": env, "cwd": os.getcwd()}
+            socket.send_fds(conn, [json.dumps(request).encode()], [out_w])
+        finally:
+            os.close(out_w)
+        stdout = open(out_r, encoding="utf-8", errors="replace")  # noqa: SIM115 (the process's)
+        return ForkedProcess([sys.executable, "-m", module, *args], conn, stdout)
+
+    def close(self) -> None:
+        assert self.process.stdin is not None
+        self.process.stdin.close()
+        self.process.wait(timeout=10)
+
+
+if __name__ == "__main__":
+    serve(sys.argv[1])
