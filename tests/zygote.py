@@ -237,9 +237,14 @@ class Zygote:
         return ForkedProcess([sys.executable, "-m", module, *args], conn, stdout)
 
     def close(self) -> None:
+        """End the zygote (its children are each stopped by whoever started them)."""
         assert self.process.stdin is not None
         self.process.stdin.close()
-        self.process.wait(timeout=10)
+        try:
+            self.process.wait(timeout=10)
+        except subprocess.TimeoutExpired:  # a process forked from the suite (a pool's worker)
+            self.process.kill()  # holds the pipe open: the zygote never saw it close
+            self.process.wait()
 
 
 if __name__ == "__main__":
