@@ -4,6 +4,7 @@ start as `python -m MODULE ARGS` from the launcher would, and end as it would be
 import json
 import os
 import signal
+import socket
 import subprocess
 
 import pytest
@@ -55,3 +56,16 @@ def test_a_child_ended_by_a_signal_says_which_and_a_handled_one_exits_as_handled
 def test_an_unhandled_ctrl_c_ends_the_child_by_the_signal_as_an_interpreter_would(zygote: Zygote) -> None:
     child, _ = started(zygote, "interrupted")
     assert child.wait(timeout=10) == -signal.SIGINT
+    negative, _ = started(zygote, "-1")
+    assert negative.wait(timeout=10) == 255  # sys.exit(-1): the low byte, not a signal
+
+
+def test_a_request_it_cannot_serve_ends_only_that_request(zygote: Zygote) -> None:
+    for bad in (b"not json\n", b'{"module": "tests.zygote_probe"}\n'):  # unparsable; no descriptor
+        with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as asker:
+            asker.connect(zygote.path)
+            asker.sendall(bad)
+            asker.settimeout(20)
+            assert asker.recv(100) == b""  # closed, nothing forked
+    child, said = started(zygote, "0")  # and the zygote serves the next one
+    assert said["probe_env"] == "yes" and child.wait(timeout=10) == 0

@@ -9,13 +9,20 @@ run: its own argv, environment, working directory, process group and output pipe
 process serving through real uvicorn. Only the imports are shared, and they are the ones made
 before any test ran.
 
+What a child gets of its own is what `os.environ`, `sys.argv` and the descriptors hold; what an
+interpreter reads once as it starts (PYTHON* variables, OPENBLAS_NUM_THREADS, NUMBA_*) is the
+zygote's, which the suite starts with its own environment.
+
 The protocol, over a Unix socket: a request is one JSON line (`module`, `args`, `env`, `cwd`) sent
 with one file descriptor, the write end of the child's output pipe; the zygote answers with a
 line `{"pid": N}`, then, when the child has exited, `{"returncode": C}` (negative: the signal that
-ended it, as `subprocess` says) and closes the connection.
+ended it, as `subprocess` says) and closes the connection. A request it cannot serve closes its
+connection and nothing else: the zygote lives on for the rest.
 
-The zygote is single-threaded (a thread holding a lock at fork would leave the child's copy of
-that lock held forever), so it learns of exits from SIGCHLD through `signal.set_wakeup_fd`.
+The zygote runs no Python thread of its own (a thread holding a lock at fork would leave the
+child's copy of that lock held forever; OpenBLAS's threads see to their own forks), so it learns of
+exits from SIGCHLD through `signal.set_wakeup_fd`. It has its own process group: a Ctrl-C in the
+terminal reaches pytest, whose teardown stops each service, not the zygote under them.
 """
 
 import atexit
@@ -38,6 +45,8 @@ from typing import Any
 # What the services import: loaded once, here, before the zygote says it is ready.
 PRELOAD = ("ptwl.cli", "ptwl.proxy_cli", "server.serve", "web.cli", "latency.serve")
 MAX_REQUEST_BYTES = 1 << 20  # a request carries an environment: kilobytes, never a megabyte
+REQUEST_TIMEOUT_S = 10.0  # the zygote serves one request at a time
+REPLY_TIMEOUT_S = 60.0  # its pid, once the requests before this one were served
 
 
 def serve(path: str) -> None:
@@ -62,6 +71,7 @@ def serve(path: str) -> None:
     selector.register(listener, selectors.EVENT_READ, "accept")
     selector.register(wake_r, selectors.EVENT_READ, "child")
     selector.register(sys.stdin, selectors.EVENT_READ, "parent")  # closed: the suite has ended
+    own_fds = (wake_r, wake_w, selector.fileno())  # closed in every child
     print("ready", flush=True)
     while True:
         for key, _ in selector.select():
@@ -69,21 +79,28 @@ def serve(path: str) -> None:
                 return
             if key.data == "accept":
                 conn, _ = listener.accept()
-                pid = _fork_child(conn, [listener, *children.values()], (wake_r, wake_w, selector.fileno()))
-                if pid is not None:
-                    children[pid] = conn
+                try:
+                    pid = _fork_child(conn, [listener, *children.values()], own_fds)
+                except Exception:  # one bad request (or a fork the system refused) ends only itself
+                    traceback.print_exc()
+                    conn.close()
+                    continue
+                children[pid] = conn
             else:
                 os.read(wake_r, 4096)
                 _reap(children)
 
 
-def _fork_child(
-    conn: socket.socket, others: list[socket.socket], fds_to_close: tuple[int, ...]
-) -> int | None:
+def _fork_child(conn: socket.socket, others: list[socket.socket], fds_to_close: tuple[int, ...]) -> int:
+    conn.settimeout(REQUEST_TIMEOUT_S)  # an asker that never finishes its request holds no one up
     message, fds, _, _ = socket.recv_fds(conn, MAX_REQUEST_BYTES, 1)
+    while not message.endswith(b"\n"):  # a large environment comes in more than one read
+        more = conn.recv(MAX_REQUEST_BYTES)
+        if not more or len(message) > MAX_REQUEST_BYTES:
+            raise ValueError(f"an unfinished request ({len(message)} B)")
+        message += more
     if len(fds) != 1:
-        conn.close()
-        return None
+        raise ValueError(f"a request with {len(fds)} descriptors, not 1")
     request = json.loads(message)
     pid = os.fork()
     if pid == 0:  # never returns
@@ -93,13 +110,18 @@ def _fork_child(
             os.close(fd)
         _run_child(request, fds[0])
     os.close(fds[0])
-    conn.sendall(json.dumps({"pid": pid}).encode() + b"\n")
+    try:
+        conn.sendall(json.dumps({"pid": pid}).encode() + b"\n")
+    except OSError:
+        os.kill(pid, signal.SIGKILL)  # the asker has gone: nobody would ever stop it
+        raise
     return pid
 
 
 def _run_child(request: dict[str, Any], output_fd: int) -> None:
     """(in the child) Become `python -m MODULE ARGS` as the launcher would have started it."""
     code: int = 1
+    by_signal: int | None = None
     try:
         gc.enable()
         signal.set_wakeup_fd(-1)
@@ -125,19 +147,22 @@ def _run_child(request: dict[str, Any], output_fd: int) -> None:
             print(stop.code, file=sys.stderr)
     except KeyboardInterrupt:
         traceback.print_exc()
-        code = -signal.SIGINT  # as an interpreter ends on an unhandled Ctrl-C: by the signal
+        by_signal = signal.SIGINT  # as an interpreter ends on an unhandled Ctrl-C: by the signal
     except BaseException:
         traceback.print_exc()
     finally:
         try:
-            atexit._run_exitfuncs()
-            sys.stdout.flush()
-            sys.stderr.flush()
+            try:  # as an interpreter ends: its non-daemon threads joined, then its atexit handlers
+                threading._shutdown()  # type: ignore[attr-defined]
+                atexit._run_exitfuncs()
+                sys.stdout.flush()
+                sys.stderr.flush()
+            finally:
+                if by_signal is not None:
+                    signal.signal(by_signal, signal.SIG_DFL)
+                    os.kill(os.getpid(), by_signal)
         finally:
-            if code < 0:
-                signal.signal(-code, signal.SIG_DFL)
-                os.kill(os.getpid(), -code)
-            os._exit(code)
+            os._exit(code & 0xFF)  # sys.exit(-1) is 255, as the kernel keeps a byte
 
 
 def _reap(children: dict[int, socket.socket]) -> None:
@@ -164,7 +189,7 @@ class ForkedProcess:
         self._buffer = b""
         self.stdout = stdout
         self.returncode: int | None = None
-        self.pid = int(self._message(None)["pid"])
+        self.pid = int(self._message(REPLY_TIMEOUT_S)["pid"])
 
     def _message(self, timeout: float | None) -> dict[str, Any]:
         deadline = None if timeout is None else time.monotonic() + timeout
@@ -176,7 +201,7 @@ class ForkedProcess:
             except (TimeoutError, BlockingIOError):  # (a timeout of 0 is a non-blocking read)
                 raise subprocess.TimeoutExpired(self.args, timeout or 0.0) from None
             if not chunk:  # its child may live on, unwatched: say so rather than guess an exit
-                raise RuntimeError(f"the zygote that forked pid {self.pid} has gone")
+                raise RuntimeError(f"the zygote has gone (or refused {self.args})")
             self._buffer += chunk
         line, self._buffer = self._buffer.split(b"\n", 1)
         return dict(json.loads(line))
@@ -197,7 +222,10 @@ class ForkedProcess:
         return self.returncode
 
     def send_signal(self, sig: int) -> None:
-        if self.poll() is None:  # never a signal to a pid that may have been reused
+        # Not to a pid whose end was reported (it may be someone else's now); the zygote reaps its
+        # children itself, so a signal sent in the instant between its reap and its report could
+        # still go astray, where Popen's zombie would hold the pid: a window of microseconds.
+        if self.poll() is None:
             os.kill(self.pid, sig)
 
     def terminate(self) -> None:
@@ -208,7 +236,7 @@ class ForkedProcess:
 
 
 class Zygote:
-    """A running zygote and the spawner that forks from it (`ptwl.launcher.SPAWNER`)."""
+    """A running zygote and the spawner that forks from it (`ptwl.launcher.SPAWN`)."""
 
     def __init__(self, path: str) -> None:
         self.path = path
@@ -217,6 +245,7 @@ class Zygote:
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             text=True,
+            process_group=0,  # a terminal's Ctrl-C is pytest's to handle, not the zygote's
         )
         assert self.process.stdout is not None
         ready = self.process.stdout.readline()
@@ -230,7 +259,11 @@ class Zygote:
         try:
             conn.connect(self.path)
             request = {"module": module, "args": args, "env": env, "cwd": os.getcwd()}
-            socket.send_fds(conn, [json.dumps(request).encode()], [out_w])
+            socket.send_fds(conn, [json.dumps(request).encode() + b"\n"], [out_w])
+        except BaseException:
+            os.close(out_r)
+            conn.close()
+            raise
         finally:
             os.close(out_w)
         stdout = open(out_r, encoding="utf-8", errors="replace")  # noqa: SIM115 (the process's)
