@@ -207,13 +207,10 @@ class ForkedProcess:
         return dict(json.loads(line))
 
     def poll(self) -> int | None:
-        if self.returncode is None:
-            try:
-                self.returncode = int(self._message(0.0)["returncode"])
-            except subprocess.TimeoutExpired:
-                return None
-            self._conn.close()
-        return self.returncode
+        try:
+            return self.wait(0.0)
+        except subprocess.TimeoutExpired:
+            return None
 
     def wait(self, timeout: float | None = None) -> int:
         if self.returncode is None:
