@@ -21,6 +21,7 @@ from websockets.exceptions import ConnectionClosedOK
 from websockets.sync.client import connect
 
 from ptwl.guard.access import bearer_header
+from ptwl.guard.client import http_client
 from robot_sim.telemetry import FRAMES_REV_HEADER
 from server.models import (
     SENDER_HEADER,
@@ -54,8 +55,7 @@ class RobotClient:
     ):
         self.base_url = base_url.rstrip("/")
         self.token = token
-        headers = bearer_header(token)
-        self._http = httpx.Client(base_url=self.base_url, headers=headers, timeout=timeout)
+        self._http = http_client(token, base_url=self.base_url, timeout=timeout)
 
     # ------------------------------------------------------------------ plumbing
     def __enter__(self) -> Self:

@@ -1,8 +1,6 @@
 """`ptwl` command line and real-time pacing."""
 
 import json
-import subprocess
-import sys
 import time
 
 import pytest
@@ -10,6 +8,7 @@ import pytest
 from ptwl.cli import main
 from robot_sim.sim import Simulation
 from server.pacing import BATCH_S, MAX_LAG_S, RealTimePacer
+from tests.command_line import run_ptwl
 from tests.fake_clock import FakeClock
 
 
@@ -67,11 +66,6 @@ def test_ptwl_lists_scenes_and_presets(capsys: pytest.CaptureFixture[str]) -> No
 
 
 def test_ptwl_rejects_an_unknown_scene() -> None:
-    result = subprocess.run(
-        [sys.executable, "-m", "ptwl.cli", "up", "--scene", "moon"],
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
+    result = run_ptwl("up", "--scene", "moon")
     assert result.returncode == 2
     assert "invalid choice: 'moon'" in result.stderr and "sleeve_on_peg" in result.stderr

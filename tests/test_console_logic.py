@@ -1,8 +1,6 @@
 """Console logic without a browser: target math, the gizmo and the fields, command history."""
 
 import os
-import subprocess
-import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -27,6 +25,7 @@ from robot_sim.sim import Simulation
 from robot_sim.task_frames import TaskFrame, TaskFrames, unit_quaternion
 from server.client import RobotClient
 from server.models import GeometryModel
+from tests.command_line import run_ptwl
 from tests.helpers import PREVIEW_WALL_BOUND_S, threads_started_since
 from tests.test_autonomy import press_machine
 from web.app import ConsoleApp
@@ -277,12 +276,7 @@ def test_close_stops_every_thread(server: ServiceProcess) -> None:
 
 
 def test_console_refuses_a_non_loopback_bind() -> None:
-    result = subprocess.run(
-        [sys.executable, "-m", "ptwl.cli", "console", "--host", "0.0.0.0"],
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
+    result = run_ptwl("console", "--host", "0.0.0.0")
     assert result.returncode == 2 and "the console has no login of its own" in result.stderr
 
 
@@ -661,9 +655,10 @@ def test_the_ghost_moves_at_once_on_send_and_its_error_is_judged(server: Service
     assert moved_after_s < 1.0
     # On this wall clock a busy CPU shifts when the command really reaches the robot against when
     # the twin starts it (the link and the robot are starved too): 5 s max error 3.2 mm with three
-    # test files at once on 2 cores, 3.9 mm with a core hogged and a profiler beside it, against
-    # 2 mm before. A twin that ignored the uplink or stood still is tens of mm off (the move is 40).
-    assert summary is not None and summary[1] < 0.006
+    # test files at once on 2 cores, 3.9 mm with a core hogged and a profiler beside it, 8.1 mm
+    # with three test workers on 2 cores (the full suite, browser files beside it), against 2 mm
+    # idle. A twin that ignored the uplink or stood still is tens of mm off (the move is 40).
+    assert summary is not None and summary[1] < 0.012
 
 
 def test_preview_says_how_a_move_ends_and_step_sends_its_first_part(

@@ -3,11 +3,13 @@
 Each test reproduces what misled an operator on main and asserts what the page shows now.
 """
 
+import itertools
 import time
 from collections.abc import Iterator
 from pathlib import Path
 
 import httpx
+import numpy as np
 import pytest
 
 from ptwl.launcher import ServiceProcess, running_console, running_proxy, running_server
@@ -83,14 +85,24 @@ def test_the_age_keeps_counting_through_a_blackout_and_turns_amber_then_red(brow
     per_s = len(quiet) / ((quiet[-1][0] - quiet[0][0]) / 1000.0)
     assert per_s >= 4.0, per_s
     # ... growing with the page's own clock, and the colour followed: amber past RTT + 1 s (RTT 0
-    # here), red past RTT + 5 s. Within a tick idle; with two tests at once beside a hogged core
-    # an update computed by a stalled console reached the page 0.41 s late, so within 0.6 s (a
-    # frozen age is seconds off by the end).
+    # here), red past RTT + 5 s. Idle, every update is within a tick of the page's clock. Under
+    # load an update the console computed can reach the page late (the console, the renderer and
+    # its software GPU all starved): measured 0.41 s with two tests beside a hogged core, 0.62 s
+    # with three test files on 2 cores, 0.85 s in a hogged CI run. So each update within 1.5 s,
+    # and the age's rate (the median slope between updates at least 2 s apart, which one late
+    # update cannot move) within 10 % of the page's clock: a frozen age is 5 s off by the end and
+    # grows at a rate of 0.
     t_first, age_first = quiet[0][0] / 1000.0, float(quiet[0][1])
     for t_ms, age, _, level in quiet:
-        assert float(age) - age_first == pytest.approx(t_ms / 1000.0 - t_first, abs=0.6)
+        assert float(age) - age_first == pytest.approx(t_ms / 1000.0 - t_first, abs=1.5)
         expected = "fresh" if float(age) <= 1.0 else "late" if float(age) <= 5.0 else "stale"
         assert level == expected, (age, level)
+    slopes = [
+        (float(b[1]) - float(a[1])) / ((b[0] - a[0]) / 1000.0)
+        for a, b in itertools.combinations(quiet, 2)
+        if b[0] - a[0] >= 2000.0
+    ]
+    assert len(slopes) > 20 and float(np.median(slopes)) == pytest.approx(1.0, abs=0.1), slopes
     assert float(quiet[-1][1]) > 6.0 and quiet[-1][3] == "stale"
     assert "STALE" in stale_text
 

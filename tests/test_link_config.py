@@ -1,7 +1,5 @@
 """Named link profiles, the control API's validation and token, and `ptwl proxy` start-up rules."""
 
-import subprocess
-import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -10,6 +8,7 @@ import pytest
 
 from latency.named import LinkConfigError, load_profiles, named_profile, named_profiles
 from ptwl.launcher import ServiceProcess, running_proxy
+from tests.command_line import run_ptwl
 
 
 def test_named_profiles_load_and_cite_their_sources() -> None:
@@ -104,11 +103,6 @@ def test_control_api_token(server: ServiceProcess) -> None:
 )
 @pytest.mark.parametrize("entry", ["ptwl.cli", "ptwl.proxy_cli"])  # `ptwl proxy`; what the launcher starts
 def test_proxy_refuses_to_start(args: list[str], message: str, entry: str) -> None:
-    result = subprocess.run(
-        [sys.executable, "-m", entry, "proxy", "--port", "0", *args],
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
+    result = run_ptwl("proxy", "--port", "0", *args, module=entry)
     assert result.returncode == 2
     assert message in result.stderr

@@ -27,6 +27,7 @@ from ptwl.recording.reader import (
 )
 from ptwl.recording.replay.timeline import Timeline
 from ptwl.recording.report import MAX_TRIAL_STEPS, report_json
+from tests.command_line import run_ptwl
 
 MAGIC = b"\x89MCAP0\r\n"
 assert len(MAGIC) == MAGIC_SIZE
@@ -86,7 +87,8 @@ def _bomb() -> bytes:
 
 
 def _run(*args: str, timeout_s: float = 120.0) -> tuple[int, str, float]:
-    """`ptwl ARGS` in a fresh interpreter: its exit code, stderr, and peak RSS [MB]."""
+    """`ptwl ARGS` in a fresh interpreter (a forked one would start with the zygote's memory): its
+    exit code, stderr, and peak RSS [MB]."""
     code = (  # VmHWM, not ru_maxrss: the latter keeps pytest's RSS (the forking parent) across exec
         "import sys\nfrom ptwl.cli import main\nrc = main(sys.argv[1:])\n"
         "peak = next(line.split()[1] for line in open('/proc/self/status') if line.startswith('VmHWM'))\n"
@@ -100,10 +102,16 @@ def _run(*args: str, timeout_s: float = 120.0) -> tuple[int, str, float]:
     return done.returncode, said, int(peak[-1].split()[1]) / 1024 if peak else float("nan")
 
 
+def _said(*args: str, timeout_s: float = 120.0) -> tuple[int, str]:
+    """`ptwl ARGS` run to its end: its exit code and what it said on stderr."""
+    done = run_ptwl(*args, timeout=timeout_s)
+    return done.returncode, done.stderr.strip()
+
+
 def _refused(path: Path, *expected: str) -> None:
     """Both readers name the problem: report exits 2 with one line, replay-serve too."""
     for command in ("report", "replay-serve"):
-        code, said, _ = _run(command, str(path))
+        code, said = _said(command, str(path))
         assert code == 2, (command, said)
         assert len(said.splitlines()) == 1 and "Traceback" not in said, said
         assert said.startswith(f"ptwl: {path}:"), said
@@ -172,11 +180,11 @@ def test_json_nested_200000_deep_is_named_not_a_recursion_error(tmp_path: Path, 
         _refused(path, expected)
     else:
         assert report_json(path) == []  # no trial: nothing decoded, nothing wrong
-        code, said, _ = _run("replay-serve", str(path))
+        code, said = _said("replay-serve", str(path))
         assert code == 2 and said == f"ptwl: {path}: {expected}", said
         # `ptwl replay` says what its stand-in said as it exited, not after the 120 s it would
         # give a file to be indexed (the launcher waited for a URL that never came).
-        code, said, _ = _run("replay", str(path), "--port", "0", timeout_s=60.0)
+        code, said = _said("replay", str(path), "--port", "0", timeout_s=60.0)
         assert code == 2 and said == f"ptwl: {path}: {expected}", said
 
 
@@ -284,7 +292,7 @@ def test_a_trial_with_more_steps_than_its_bound_is_refused(tmp_path: Path) -> No
         *_json_channel(topics.GEOMETRY), *_json_channel(topics.STEPS, 2), _message(geometry), *steps
     )
     path = _file(tmp_path / "steps.mcap", _chunk(inner))
-    code, said, _ = _run("report", str(path))  # a report holds a trial's steps; replay never does
+    code, said = _said("report", str(path))  # a report holds a trial's steps; replay never does
     assert (
         code == 2 and said == f"ptwl: {path}: the surface trial at 1 ns has over {MAX_TRIAL_STEPS} steps"
     ), said

@@ -1,8 +1,6 @@
 """Access: loopback by default; a non-loopback bind needs a token; the token guards the API."""
 
 import asyncio
-import subprocess
-import sys
 from collections.abc import Iterator
 
 import httpx
@@ -11,6 +9,7 @@ import websockets
 
 from ptwl.launcher import ServiceProcess, running_server
 from server.config import ConfigError, ServerConfig, is_loopback
+from tests.command_line import run_ptwl
 
 TOKEN = "s3cret-token-0123456789"
 
@@ -30,13 +29,7 @@ def test_default_bind_is_loopback() -> None:
 def test_non_loopback_bind_without_token_refuses_to_start() -> None:
     with pytest.raises(ConfigError, match="needs an access token"):
         ServerConfig(host="0.0.0.0").check()
-    result = subprocess.run(
-        [sys.executable, "-m", "ptwl.cli", "serve", "--host", "0.0.0.0", "--port", "0"],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        env={"PATH": "/usr/bin:/bin"},
-    )
+    result = run_ptwl("serve", "--host", "0.0.0.0", "--port", "0", env={"PATH": "/usr/bin:/bin"})
     assert result.returncode == 2
     assert "refusing to bind 0.0.0.0: a non-loopback address needs an access token" in result.stderr
 
@@ -92,12 +85,7 @@ def test_websocket_needs_the_token_too(guarded: ServiceProcess) -> None:
 @pytest.mark.parametrize("command", ["serve", "proxy"])
 @pytest.mark.parametrize("token", [" ", "a", "short-token", "has white space in it"])
 def test_a_weak_token_refuses_to_start(command: str, token: str) -> None:
-    result = subprocess.run(
-        [sys.executable, "-m", "ptwl.cli", command, "--port", "0", "--token", token],
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
+    result = run_ptwl(command, "--port", "0", "--token", token)
     assert result.returncode == 2
     assert "access token must be at least 16 characters with no whitespace" in result.stderr
 

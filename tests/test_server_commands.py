@@ -1,8 +1,6 @@
 """Commands through a real uvicorn server: exits, order, long-poll, stop, scenes, task, OpenAPI."""
 
 import itertools
-import subprocess
-import sys
 import threading
 import time
 
@@ -13,6 +11,7 @@ import pytest
 from robot_sim.scenes import SCENES
 from robot_sim.scenes.grasp import PNEUMATIC_CLOSE_S
 from server.client import RobotClient, RobotError
+from tests.command_line import run_ptwl
 
 GAP_TO_PLATE = 0.0466 - 0.008  # [m] as in tests/test_ptwl.py
 
@@ -178,12 +177,7 @@ def test_openapi_documents_every_parameter_with_units(server) -> None:  # type: 
 
 
 def test_api_docs_example_script_drives_a_ptwl_rwe_sequence(server) -> None:  # type: ignore[no-untyped-def]
-    result = subprocess.run(
-        [sys.executable, "-m", "ptwl.experiments.press_and_relieve", "--url", server.url],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    result = run_ptwl("--url", server.url, module="ptwl.experiments.press_and_relieve", timeout=120)
     assert result.returncode == 0, result.stderr
     lines = result.stdout.splitlines()
     assert lines[0].startswith("press") and "wrench_breach" in lines[0]

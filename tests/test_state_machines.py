@@ -6,7 +6,6 @@ import json
 import math
 import os
 import subprocess
-import sys
 import threading
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -26,6 +25,7 @@ from robot_sim.policies.sleeve_on_peg import SleeveOnPeg
 from robot_sim.pose_math import rotation_matrix
 from robot_sim.sim import Simulation
 from server.client import RobotClient
+from tests.command_line import run_ptwl
 from tests.helpers import DOWN_WXYZ, report_down
 
 HOME = Pose((0.378, 0.0, 0.266), DOWN_WXYZ)
@@ -204,9 +204,7 @@ def test_a_run_that_gives_up_is_failed_and_not_a_success() -> None:
 
 def test_task_command_line_runs_lists_and_benches() -> None:
     def ptwl(*args: str) -> subprocess.CompletedProcess[str]:
-        return subprocess.run(
-            [sys.executable, "-m", "ptwl.cli", "task", *args], capture_output=True, text=True, timeout=120
-        )
+        return run_ptwl("task", *args, timeout=120)
 
     listed = ptwl("list")
     assert listed.returncode == 0 and "sleeve_on_peg" in listed.stdout

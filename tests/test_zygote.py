@@ -69,3 +69,19 @@ def test_a_request_it_cannot_serve_ends_only_that_request(zygote: Zygote) -> Non
             assert asker.recv(100) == b""  # closed, nothing forked
     child, said = started(zygote, "0")  # and the zygote serves the next one
     assert said["probe_env"] == "yes" and child.wait(timeout=10) == 0
+
+
+def test_a_command_run_to_its_end_keeps_stdout_and_stderr_apart_and_a_timeout_kills_it(
+    zygote: Zygote,
+) -> None:
+    """`run` is `subprocess.run(capture_output=True, text=True)` (tests/command_line.py)."""
+    done = zygote.run("tests.zygote_probe", ["5"], {**os.environ, "ZYGOTE_PROBE": "run"}, timeout=30)
+    assert done.returncode == 5 and done.stderr == "to stderr\n"
+    said = json.loads(done.stdout)  # one line: stderr's is not in it
+    assert said["probe_env"] == "run" and said["argv"] == ["5"]
+    with pytest.raises(subprocess.TimeoutExpired):
+        zygote.run("tests.zygote_probe", ["wait"], dict(os.environ), timeout=1.0)
+    # A preloaded module runs anew as __main__, as `python -m` runs it: nothing on stderr (runpy
+    # warns when it runs a module already imported).
+    usage = zygote.run("ptwl.cli", ["--help"], dict(os.environ), timeout=30)
+    assert usage.returncode == 0 and usage.stdout.startswith("usage: ptwl") and usage.stderr == ""

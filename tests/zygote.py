@@ -14,7 +14,8 @@ interpreter reads once as it starts (PYTHON* variables, OPENBLAS_NUM_THREADS, NU
 zygote's, which the suite starts with its own environment.
 
 The protocol, over a Unix socket: a request is one JSON line (`module`, `args`, `env`, `cwd`) sent
-with one file descriptor, the write end of the child's output pipe; the zygote answers with a
+with one file descriptor, the write end of the child's output pipe (or two: its stdout's and its
+stderr's, for a command whose streams a test reads apart); the zygote answers with a
 line `{"pid": N}`, then, when the child has exited, `{"returncode": C}` (negative: the signal that
 ended it, as `subprocess` says) and closes the connection. A request it cannot serve closes its
 connection and nothing else: the zygote lives on for the rest.
@@ -93,23 +94,26 @@ def serve(path: str) -> None:
 
 def _fork_child(conn: socket.socket, others: list[socket.socket], fds_to_close: tuple[int, ...]) -> int:
     conn.settimeout(REQUEST_TIMEOUT_S)  # an asker that never finishes its request holds no one up
-    message, fds, _, _ = socket.recv_fds(conn, MAX_REQUEST_BYTES, 1)
-    while not message.endswith(b"\n"):  # a large environment comes in more than one read
-        more = conn.recv(MAX_REQUEST_BYTES)
-        if not more or len(message) > MAX_REQUEST_BYTES:
-            raise ValueError(f"an unfinished request ({len(message)} B)")
-        message += more
-    if len(fds) != 1:
-        raise ValueError(f"a request with {len(fds)} descriptors, not 1")
-    request = json.loads(message)
-    pid = os.fork()
-    if pid == 0:  # never returns
-        for sock in (*others, conn):
-            sock.close()
-        for fd in fds_to_close:  # the zygote's wakeup pipe and selector
+    message, fds, _, _ = socket.recv_fds(conn, MAX_REQUEST_BYTES, 2)
+    try:
+        while not message.endswith(b"\n"):  # a large environment comes in more than one read
+            more = conn.recv(MAX_REQUEST_BYTES)
+            if not more or len(message) > MAX_REQUEST_BYTES:
+                raise ValueError(f"an unfinished request ({len(message)} B)")
+            message += more
+        if len(fds) not in (1, 2):
+            raise ValueError(f"a request with {len(fds)} descriptors, not 1 or 2")
+        request = json.loads(message)
+        pid = os.fork()
+        if pid == 0:  # never returns
+            for sock in (*others, conn):
+                sock.close()
+            for fd in fds_to_close:  # the zygote's wakeup pipe and selector
+                os.close(fd)
+            _run_child(request, fds)
+    finally:
+        for fd in fds:  # the child's now (or nobody's: a request refused)
             os.close(fd)
-        _run_child(request, fds[0])
-    os.close(fds[0])
     try:
         conn.sendall(json.dumps({"pid": pid}).encode() + b"\n")
     except OSError:
@@ -118,7 +122,7 @@ def _fork_child(conn: socket.socket, others: list[socket.socket], fds_to_close: 
     return pid
 
 
-def _run_child(request: dict[str, Any], output_fd: int) -> None:
+def _run_child(request: dict[str, Any], output_fds: list[int]) -> None:
     """(in the child) Become `python -m MODULE ARGS` as the launcher would have started it."""
     code: int = 1
     by_signal: int | None = None
@@ -129,9 +133,9 @@ def _run_child(request: dict[str, Any], output_fd: int) -> None:
         os.setpgid(0, 0)  # its own process group, as the launcher's process_group=0
         devnull = os.open(os.devnull, os.O_RDONLY)
         os.dup2(devnull, 0)
-        os.dup2(output_fd, 1)
-        os.dup2(output_fd, 2)
-        for fd in (devnull, output_fd):
+        os.dup2(output_fds[0], 1)
+        os.dup2(output_fds[-1], 2)  # with one descriptor, stderr joins stdout
+        for fd in (devnull, *output_fds):
             os.close(fd)
         sys.stdin = open(0, closefd=False)  # noqa: SIM115 (fd 0 is the process's, for its life)
         sys.stdout.reconfigure(line_buffering=True)  # type: ignore[union-attr]
@@ -139,6 +143,9 @@ def _run_child(request: dict[str, Any], output_fd: int) -> None:
         os.environ.clear()
         os.environ.update(request["env"])
         sys.argv = [request["module"], *request["args"]]
+        # As `python -m` runs it: its code anew as __main__, not the preloaded copy (which runpy
+        # would also warn about on stderr, where a fresh interpreter says nothing).
+        sys.modules.pop(request["module"], None)
         runpy.run_module(request["module"], run_name="__main__", alter_sys=True)
         code = 0
     except SystemExit as stop:
@@ -251,20 +258,65 @@ class Zygote:
             raise RuntimeError(f"the zygote did not start: {ready!r}")
 
     def spawn(self, module: str, args: list[str], env: dict[str, str]) -> ForkedProcess:
+        """`python -m MODULE ARGS` started, its stdout and stderr on one pipe (ptwl.launcher.SPAWN)."""
         out_r, out_w = os.pipe()
+        conn = self._ask(module, args, env, [out_w], [out_r])
+        stdout = open(out_r, encoding="utf-8", errors="replace")  # noqa: SIM115 (the process's)
+        return ForkedProcess([sys.executable, "-m", module, *args], conn, stdout)
+
+    def run(
+        self, module: str, args: list[str], env: dict[str, str], timeout: float
+    ) -> subprocess.CompletedProcess[str]:
+        """`python -m MODULE ARGS` to its end, as `subprocess.run(..., capture_output=True,
+        text=True, timeout=...)` runs it: stdout and stderr apart; killed on the timeout."""
+        (out_r, out_w), (err_r, err_w) = os.pipe(), os.pipe()
+        conn = self._ask(module, args, env, [out_w, err_w], [out_r, err_r])
+        process = ForkedProcess([sys.executable, "-m", module, *args], conn, None)
+        streams = {out_r: bytearray(), err_r: bytearray()}
+        deadline = time.monotonic() + timeout
+        with selectors.DefaultSelector() as selector:
+            for fd in streams:
+                selector.register(fd, selectors.EVENT_READ)
+            while selector.get_map():
+                left = deadline - time.monotonic()
+                ready = selector.select(left) if left > 0 else []
+                if not ready:
+                    process.kill()
+                    for key in list(selector.get_map().values()):
+                        selector.unregister(key.fd)
+                        os.close(key.fd)
+                    process.wait()
+                    raise subprocess.TimeoutExpired(process.args, timeout)
+                for key, _ in ready:
+                    chunk = os.read(key.fd, 65536)
+                    if chunk:
+                        streams[key.fd] += chunk
+                    else:
+                        selector.unregister(key.fd)
+                        os.close(key.fd)
+        code = process.wait(max(0.0, deadline - time.monotonic()))
+        out, err = (bytes(streams[fd]).decode(errors="replace") for fd in (out_r, err_r))
+        return subprocess.CompletedProcess(process.args, code, out, err)
+
+    def _ask(
+        self, module: str, args: list[str], env: dict[str, str], fds: list[int], read_ends: list[int]
+    ) -> socket.socket:
+        """Send the request with the write ends `fds` (closed here: the child holds them now);
+        if it cannot be sent, the `read_ends` are closed too."""
         conn = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
         try:
             conn.connect(self.path)
             request = {"module": module, "args": args, "env": env, "cwd": os.getcwd()}
-            socket.send_fds(conn, [json.dumps(request).encode() + b"\n"], [out_w])
+            socket.send_fds(conn, [json.dumps(request).encode() + b"\n"], fds)
         except BaseException:
-            os.close(out_r)
             conn.close()
+            for fd in read_ends:
+                os.close(fd)
             raise
         finally:
-            os.close(out_w)
-        stdout = open(out_r, encoding="utf-8", errors="replace")  # noqa: SIM115 (the process's)
-        return ForkedProcess([sys.executable, "-m", module, *args], conn, stdout)
+            for fd in fds:
+                os.close(fd)
+        return conn
 
     def close(self) -> None:
         """End the zygote (its children are each stopped by whoever started them)."""

@@ -8,7 +8,7 @@ from typing import Any
 
 import httpx
 
-from ptwl.guard.access import bearer_header
+from ptwl.guard.client import http_client
 from web.link_plan import link_replaces_states
 from web.worker import Worker
 
@@ -36,7 +36,7 @@ class LinkPoller(Worker):
         self._outlook_url = robot_url + "/_link/outlook"
         # One client for every poll: a bare `httpx.get` builds a new client and TLS context each
         # time, which was ~7% of an idle console's CPU (py-spy) at one poll every 2 s.
-        self._http = httpx.Client(headers=bearer_header(token), timeout=2.0)
+        self._http = http_client(token, timeout=2.0)
         self._on_text = on_text
         self.rtt_s = 0.0
         self.profile: dict[str, Any] | None = None

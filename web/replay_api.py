@@ -5,7 +5,7 @@ from typing import Any
 
 import httpx
 
-from ptwl.guard.access import bearer_header
+from ptwl.guard.client import http_client
 
 
 class ReplayApi:
@@ -13,7 +13,7 @@ class ReplayApi:
         self._url = robot_url + "/_replay"
         # One client for the playhead's polls (4 a second): a bare `httpx.get` builds a new client
         # and TLS context each time.
-        self._http = httpx.Client(headers=bearer_header(token))
+        self._http = http_client(token)
 
     def close(self) -> None:
         self._http.close()
