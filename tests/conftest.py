@@ -132,16 +132,28 @@ def pytest_configure(config: pytest.Config) -> None:
         config.option.loadscopereorder = False
 
 
+# The longest files without a browser, measured (2 workers, idle): each 30-50 s, against a few
+# seconds for most. They start right after the browser files, for the same reason.
+LONG_FILES = (
+    "test_sweep_ray_cluster.py",  # two `ray start` nodes
+    "test_sweep_outputs.py",  # sweeps, one on a local Ray
+    "test_openapi_fuzz.py",  # Schemathesis, twice at once
+    "test_link_proxy.py",
+    "test_server_commands.py",
+    "test_state_machines.py",
+)
+
+
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     """Every test that drives Chromium is marked `browser`, so `-m "not browser"` leaves them out.
 
-    Files with browser tests run first (each file's tests stay together and in order): they are
-    the longest (a minute to four on 2 cores), so with a worker per core (`-n auto --dist
-    loadfile`) the short files fill in behind them instead of one worker finishing a long file
-    alone at the end."""
+    Files with browser tests run first, then LONG_FILES (each file's tests stay together and in
+    order): they are the longest (a minute to four on 2 cores for a browser file), so with a
+    worker per core (`-n auto --dist loadfile`) the short files fill in behind them instead of one
+    worker finishing a long file alone at the end."""
     browser_files = set()
     for item in items:
         if "browser" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.browser)
             browser_files.add(item.path)
-    items.sort(key=lambda item: item.path not in browser_files)
+    items.sort(key=lambda item: (item.path not in browser_files, item.path.name not in LONG_FILES))

@@ -203,13 +203,15 @@ class MachinesTab(RequestTab):
     # ----------------------------------------------------- the running one
     def show_running(self, machine: dict[str, Any] | None, now_sim_s: float | None, may_decide: bool) -> None:
         """Telemetry's `machine` (None: none runs): the decision line, the buttons, the graph."""
-        self.running = machine
         show(self.decision, decision_html(machine, now_sim_s))
         pending = bool(machine and machine.get("pending"))
         for button in (self.confirm, self.decide_outcome, self.force, self.stop_machine):
             button.disabled = not (pending and may_decide)
         nxt = (machine or {}).get("pending") or {}
         self.preview_next.disabled = not (pending and (nxt.get("next") or {}).get("type") == "ptwl")
+        # After the buttons: whoever reads a pending decision here (a button's callback, on
+        # viser's thread) finds the buttons already set for it.
+        self.running = machine
         states = list((machine or {}).get("visits", {}) or [])
         spec = self.spec()
         options = [*(spec.states if spec is not None else states), *TERMINALS] or ["(none)"]
