@@ -79,8 +79,9 @@ def test_a_command_run_to_its_end_keeps_stdout_and_stderr_apart_and_a_timeout_ki
     assert done.returncode == 5 and done.stderr == "to stderr\n"
     said = json.loads(done.stdout)  # one line: stderr's is not in it
     assert said["probe_env"] == "run" and said["argv"] == ["5"]
-    with pytest.raises(subprocess.TimeoutExpired):
-        zygote.run("tests.zygote_probe", ["wait"], dict(os.environ), timeout=1.0)
+    for still_running in ("wait", "silent"):  # its output open; closed, yet running on
+        with pytest.raises(subprocess.TimeoutExpired):
+            zygote.run("tests.zygote_probe", [still_running], dict(os.environ), timeout=1.0)
     # A preloaded module runs anew as __main__, as `python -m` runs it: nothing on stderr (runpy
     # warns when it runs a module already imported).
     usage = zygote.run("ptwl.cli", ["--help"], dict(os.environ), timeout=30)

@@ -294,7 +294,12 @@ class Zygote:
                     else:
                         selector.unregister(key.fd)
                         os.close(key.fd)
-        code = process.wait(max(0.0, deadline - time.monotonic()))
+        try:  # both streams closed, yet it may run on: as subprocess.run, killed on the timeout
+            code = process.wait(max(0.0, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+            raise
         out, err = (bytes(streams[fd]).decode(errors="replace") for fd in (out_r, err_r))
         return subprocess.CompletedProcess(process.args, code, out, err)
 
