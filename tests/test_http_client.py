@@ -32,5 +32,5 @@ def test_our_clients_read_the_ca_bundle_once_between_them(monkeypatch: pytest.Mo
         for robot in robots:
             robot.close()
         replay.close()
-        poller._http.close()
+        poller.close()  # never started: closes its client
         tls_context.cache_clear()

@@ -272,35 +272,34 @@ class Zygote:
         (out_r, out_w), (err_r, err_w) = os.pipe(), os.pipe()
         conn = self._ask(module, args, env, [out_w, err_w], [out_r, err_r])
         process = ForkedProcess([sys.executable, "-m", module, *args], conn, None)
-        streams = {out_r: bytearray(), err_r: bytearray()}
+        captured = {out_r: bytearray(), err_r: bytearray()}
+        still_open = set(captured)
         deadline = time.monotonic() + timeout
-        with selectors.DefaultSelector() as selector:
-            for fd in streams:
-                selector.register(fd, selectors.EVENT_READ)
-            while selector.get_map():
-                left = deadline - time.monotonic()
-                ready = selector.select(left) if left > 0 else []
-                if not ready:
-                    process.kill()
-                    for key in list(selector.get_map().values()):
-                        selector.unregister(key.fd)
-                        os.close(key.fd)
-                    process.wait()
-                    raise subprocess.TimeoutExpired(process.args, timeout)
-                for key, _ in ready:
-                    chunk = os.read(key.fd, 65536)
-                    if chunk:
-                        streams[key.fd] += chunk
-                    else:
-                        selector.unregister(key.fd)
-                        os.close(key.fd)
-        try:  # both streams closed, yet it may run on: as subprocess.run, killed on the timeout
+        try:
+            with selectors.DefaultSelector() as selector:
+                for fd in still_open:
+                    selector.register(fd, selectors.EVENT_READ)
+                while selector.get_map():
+                    ready = selector.select(max(0.0, deadline - time.monotonic()))
+                    if not ready:
+                        raise subprocess.TimeoutExpired(process.args, timeout)
+                    for key, _ in ready:
+                        chunk = os.read(key.fd, 65536)
+                        captured[key.fd] += chunk
+                        if not chunk:
+                            selector.unregister(key.fd)
+                            still_open.discard(key.fd)
+                            os.close(key.fd)
+            # Both streams closed, yet it may run on: waited for until the same deadline.
             code = process.wait(max(0.0, deadline - time.monotonic()))
-        except subprocess.TimeoutExpired:
+        except subprocess.TimeoutExpired:  # as subprocess.run: killed, then the timeout raised
             process.kill()
             process.wait()
             raise
-        out, err = (bytes(streams[fd]).decode(errors="replace") for fd in (out_r, err_r))
+        finally:
+            for fd in still_open:  # the read ends not yet at their end (a timeout, an error)
+                os.close(fd)
+        out, err = (bytes(captured[fd]).decode(errors="replace") for fd in (out_r, err_r))
         return subprocess.CompletedProcess(process.args, code, out, err)
 
     def _ask(
