@@ -207,7 +207,9 @@ def test_http_round_trip_takes_uplink_plus_downlink_and_control_is_immediate(
             response = client.get("/api/health")
             elapsed.append(time.monotonic() - t0)
             assert response.status_code == 200 and response.json()["status"] == "ok"
-        assert all(1.5 <= e <= 1.5 + HOST_STALL_S for e in elapsed) and min(elapsed) <= 1.5 + 0.05, elapsed
+        # The best of three within 0.2 s of 1.5 s: a few ms idle; 0.115 s for all three in a hogged
+        # CI run (this client, the link and the robot all starved). Never early is the link's rule.
+        assert all(1.5 <= e <= 1.5 + HOST_STALL_S for e in elapsed) and min(elapsed) <= 1.5 + 0.2, elapsed
         control = []
         for _ in range(3):
             t0 = time.monotonic()
