@@ -28,6 +28,7 @@ terminal reaches pytest, whose teardown stops each service, not the zygote under
 
 import atexit
 import contextlib
+import ctypes
 import gc
 import importlib
 import json
@@ -122,6 +123,14 @@ def _fork_child(conn: socket.socket, others: list[socket.socket], fds_to_close: 
     return pid
 
 
+def _name_process(module: str) -> None:
+    """Name the child after its module in `ps -o comm` and /proc/PID/stat (15 bytes at most), so a
+    forked server, link or console can be told from the zygote it came from."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    pr_set_name = 15
+    libc.prctl(pr_set_name, module.encode()[:15], 0, 0, 0)
+
+
 def _run_child(request: dict[str, Any], output_fds: list[int]) -> None:
     """(in the child) Become `python -m MODULE ARGS` as the launcher would have started it."""
     code: int = 1
@@ -143,6 +152,7 @@ def _run_child(request: dict[str, Any], output_fds: list[int]) -> None:
         os.environ.clear()
         os.environ.update(request["env"])
         sys.argv = [request["module"], *request["args"]]
+        _name_process(request["module"])
         # As `python -m` runs it: its code anew as __main__, not the preloaded copy (which runpy
         # would also warn about on stderr, where a fresh interpreter says nothing).
         sys.modules.pop(request["module"], None)

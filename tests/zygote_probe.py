@@ -17,6 +17,7 @@ if __name__ == "__main__":
                 "probe_env": os.environ.get("ZYGOTE_PROBE"),
                 "leader": os.getpgid(0) == os.getpid(),
                 "stdin_closed": sys.stdin.read() == "",
+                "comm": open("/proc/self/comm").read().strip(),  # noqa: SIM115 (read once)
             }
         ),
         flush=True,
