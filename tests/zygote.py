@@ -123,12 +123,13 @@ def _fork_child(conn: socket.socket, others: list[socket.socket], fds_to_close: 
     return pid
 
 
-def _name_process(module: str) -> None:
-    """Name the child after its module in `ps -o comm` and /proc/PID/stat (15 bytes at most), so a
-    forked server, link or console can be told from the zygote it came from."""
+def _name_process(name: str) -> None:
+    """Name the child after its module and first argument in `ps -o comm` and /proc/PID/stat (15
+    bytes at most: "ptwl.cli serve"), so a forked server, link or console can be told from the
+    zygote it came from."""
     libc = ctypes.CDLL(None, use_errno=True)
     pr_set_name = 15
-    libc.prctl(pr_set_name, module.encode()[:15], 0, 0, 0)
+    libc.prctl(pr_set_name, name.encode()[:15], 0, 0, 0)
 
 
 def _run_child(request: dict[str, Any], output_fds: list[int]) -> None:
@@ -152,7 +153,7 @@ def _run_child(request: dict[str, Any], output_fds: list[int]) -> None:
         os.environ.clear()
         os.environ.update(request["env"])
         sys.argv = [request["module"], *request["args"]]
-        _name_process(request["module"])
+        _name_process(" ".join([request["module"], *request["args"][:1]]))
         # As `python -m` runs it: its code anew as __main__, not the preloaded copy (which runpy
         # would also warn about on stderr, where a fresh interpreter says nothing).
         sys.modules.pop(request["module"], None)
