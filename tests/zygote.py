@@ -126,7 +126,9 @@ def _fork_child(conn: socket.socket, others: list[socket.socket], fds_to_close: 
 def _name_process(name: str) -> None:
     """Name the child after its module and first argument in `ps -o comm` and /proc/PID/stat (15
     bytes at most: "ptwl.cli serve"), so a forked server, link or console can be told from the
-    zygote it came from."""
+    zygote it came from. Linux only (prctl); elsewhere the child keeps the zygote's name."""
+    if not sys.platform.startswith("linux"):
+        return
     libc = ctypes.CDLL(None, use_errno=True)
     pr_set_name = 15
     libc.prctl(pr_set_name, name.encode()[:15], 0, 0, 0)
