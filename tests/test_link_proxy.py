@@ -246,7 +246,12 @@ def test_blackout_hold_and_drop_live(fast_server: ServiceProcess) -> None:
         dropped = httpx.get(proxy.url + "/_link/stats").json()["downlink"]["dropped"]["blackout"] - before
         states = [m for _, m in received if m["type"] == "state"]
         gaps = [b["seq"] - a["seq"] - 1 for a, b in itertools.pairwise(states) if b["seq"] - a["seq"] > 1]
-        assert len(gaps) == 1 and gaps[0] == pytest.approx(200, abs=3)  # one second lost, whole messages
+        # One second of the link's arrivals lost, whole messages, as the link counted them. The
+        # second is the link's clock and the count the server's 200/s: a server catching up after a
+        # stall, or a link reading late at the window's edge, puts a few more inside it (measured
+        # 204 with three test files on 2 cores and 207 in a fresh-clone CI run). So +-15 (75 ms);
+        # the window's exact edges are held on a simulated clock in test_delay_line.py.
+        assert len(gaps) == 1 and gaps[0] == pytest.approx(200, abs=15)
         assert dropped == pytest.approx(gaps[0], abs=3)
 
 
