@@ -221,6 +221,55 @@ def test_fields_move_the_contemplated_ghost_and_the_gizmo(console: ConsoleApp) -
         assert desk.gizmo.visible
 
 
+def test_a_states_redraw_that_read_the_fields_before_an_edit_never_draws_after_it(
+    console: ConsoleApp, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Found by a run with a core hogged: a state's redraw (the telemetry's thread) read the
+    fields, the test's edit and its redraw ran, then the state's redraw drew what it had read: the
+    label said |(20, -10, 0)| = 22.36 mm under fields (20, -10, 5) until the next state. Here the
+    state's redraw is held between reading and drawing while the edit comes."""
+    wait_for_state(console)
+    with viser_client(console) as desk:
+        desk.panel.ptwl.frame.value = "base"
+        desk.panel.ptwl.translation.value = (20.0, -10.0, 0.0)  # mm
+        desk.fields_changed()
+        has_read, go_on = threading.Event(), threading.Event()
+        read_the_fields, show = desk._target, desk.contemplated.show
+        drawn: list[tuple[str, float | None]] = []
+
+        def read_then_wait(port: Any) -> Any:
+            target = read_the_fields(port)
+            if threading.current_thread().name == "state":
+                has_read.set()
+                go_on.wait(10.0)
+            return target
+
+        def show_and_note(target: Any, port: Any) -> None:
+            show(target, port)
+            drawn.append((threading.current_thread().name, desk.contemplated.distance_mm))
+
+        def edit() -> None:
+            desk.panel.ptwl.translation.value = (20.0, -10.0, 5.0)
+            desk.fields_changed()
+
+        monkeypatch.setattr(desk, "_target", read_then_wait)
+        monkeypatch.setattr(desk.contemplated, "show", show_and_note)
+        state = threading.Thread(target=desk.update_contemplated, name="state")
+        state.start()
+        assert has_read.wait(10.0)
+        editing = threading.Thread(target=edit, name="edit")
+        editing.start()
+        editing.join(0.3)  # unguarded, the edit's redraw is done by now, before the state's
+        go_on.set()
+        state.join(10.0)
+        editing.join(10.0)
+        ours = [(name, distance) for name, distance in drawn if name in ("state", "edit")]
+        names = [name for name, _ in ours]  # the edit redraws once per callback and once after
+        assert names[0] == "state" and set(names[1:]) == {"edit"}  # no state's redraw after it
+        assert ours[-1][1] == pytest.approx(22.91, abs=0.05)  # |(20, -10, 5)| mm
+        assert desk.contemplated.distance_mm == pytest.approx(22.91, abs=0.05)
+
+
 def test_dragging_the_gizmo_fills_the_fields(console: ConsoleApp) -> None:
     wait_for_state(console)
     with viser_client(console) as desk:

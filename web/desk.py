@@ -3,6 +3,7 @@ control seat. What it sends goes through the console's shared `send` (one path f
 and only what its fields show: a field whose text is not a number (FieldError) sends nothing,
 previews nothing and draws no target."""
 
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -73,6 +74,11 @@ class Desk:
         self._seat = seat
         self._services = services
         self._syncing_gizmo = False
+        # The contemplated target is redrawn from the fields on every state (the telemetry's
+        # thread) and on every edit (viser's): each reads the fields and then draws, and a state's
+        # redraw that read the fields before an edit must not draw after it (the label said
+        # |(20, -10, 0)| mm under (20, -10, 5) until the next state, which a blackout delays).
+        self._contemplating = threading.RLock()
         self.panel = Panel(
             client.gui, catalog.defaults, catalog.stiffness_presets, catalog.dither_presets, catalog.tasks
         )
@@ -332,17 +338,20 @@ class Desk:
             self.update_contemplated(move_gizmo=True)
 
     def update_contemplated(self, move_gizmo: bool = False) -> None:
-        port = self._services.port()
-        target, why_not = self._target(port)
-        self.contemplated.show(target, port[0] if port is not None else None)
-        self.panel.ptwl.show_contemplated(self.contemplated.distance_mm, why_not)
-        show = bool(self.panel.ptwl.show_gizmo.value) and target is not None
-        appearing = show and not self.gizmo.visible
-        self.gizmo.visible = show
-        if show and target is not None and (move_gizmo or appearing):
-            self._syncing_gizmo = True
-            self.gizmo.position, self.gizmo.wxyz = target
-            self._syncing_gizmo = False
+        """Redraw the contemplated target (and the gizmo) from the fields as they are now: read
+        and drawn under one lock, so the last redraw is of the latest fields."""
+        with self._contemplating:
+            port = self._services.port()
+            target, why_not = self._target(port)
+            self.contemplated.show(target, port[0] if port is not None else None)
+            self.panel.ptwl.show_contemplated(self.contemplated.distance_mm, why_not)
+            show = bool(self.panel.ptwl.show_gizmo.value) and target is not None
+            appearing = show and not self.gizmo.visible
+            self.gizmo.visible = show
+            if show and target is not None and (move_gizmo or appearing):
+                self._syncing_gizmo = True
+                self.gizmo.position, self.gizmo.wxyz = target
+                self._syncing_gizmo = False
 
     def _target(self, port: PoseArrays | None) -> tuple[PoseArrays | None, str]:
         """Where the PTWL as typed goes; None, and why, without a port, in a frame not known
