@@ -28,7 +28,6 @@ terminal reaches pytest, whose teardown stops each service, not the zygote under
 
 import atexit
 import contextlib
-import ctypes
 import gc
 import importlib
 import json
@@ -126,12 +125,9 @@ def _fork_child(conn: socket.socket, others: list[socket.socket], fds_to_close: 
 def _name_process(name: str) -> None:
     """Name the child after its module and first argument in `ps -o comm` and /proc/PID/stat (15
     bytes at most: "ptwl.cli serve"), so a forked server, link or console can be told from the
-    zygote it came from. Linux only (prctl); elsewhere the child keeps the zygote's name."""
-    if not sys.platform.startswith("linux"):
-        return
-    libc = ctypes.CDLL(None, use_errno=True)
-    pr_set_name = 15
-    libc.prctl(pr_set_name, name.encode()[:15], 0, 0, 0)
+    zygote it came from. Where there is no /proc, the child keeps the zygote's name."""
+    with contextlib.suppress(OSError), open("/proc/self/comm", "wb") as comm:
+        comm.write(name.encode()[:15])  # the kernel keeps 15 bytes
 
 
 def _run_child(request: dict[str, Any], output_fds: list[int]) -> None:
