@@ -10,6 +10,7 @@ import ptwl.launcher
 from ptwl.launcher import ServiceProcess, running_console, running_proxy, running_server
 from robot_sim.warm import warm_up
 from server.client import RobotClient
+from tests.console_page import PAGE_WAIT_MS
 from tests.frame_cap import CappedBrowser
 from tests.zygote import Zygote
 from web.browser import chromium_available, launch
@@ -98,8 +99,18 @@ def browser() -> Iterator[object]:
 
     with sync_playwright() as playwright:
         chromium = launch(playwright)
-        yield CappedBrowser(chromium)
+        yield CappedBrowser(chromium, timeout_ms=PAGE_WAIT_MS)
         chromium.close()
+
+
+@pytest.fixture(autouse=True)
+def pages_closed(request: pytest.FixtureRequest) -> Iterator[None]:
+    """Every page a test opened is closed when it ends, passed or failed (a failed test skips its
+    own `page.close()`): pages left open would load the tests after it."""
+    capped = request.getfixturevalue("browser") if "browser" in request.fixturenames else None
+    yield
+    if isinstance(capped, CappedBrowser):
+        capped.close_pages()
 
 
 def pytest_sessionstart(session: pytest.Session) -> None:

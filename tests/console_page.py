@@ -20,10 +20,19 @@ page draw 60 frames a second for as long as a test waits: measured, 71% of a cor
 software GPU process against 9% when polled every 100 ms, for a page whose robot is still. 50 ms
 is finer than any time a test asserts."""
 
+PAGE_WAIT_MS = 60_000
+"""How long a test waits for a page to show or do something (every page's default timeout, and
+`until`'s): a bound, not a check. Loaded CI runs took over 3 s to draw a marker after its Send,
+over 10 s to show a fresh page's Send, and once over 30 s (Playwright's default) to take a click
+on a page that had just loaded a scene beside another. What the tests assert is what a page
+shows, and the order of events: between two events both seen (the marker at least a second
+before the robot's port moves), or by a window the test holds open long enough (a command queued
+behind one that runs 8 s); never by a short wait."""
+
 PORT_TEXT = re.compile(r"port \((-?[\d.]+), (-?[\d.]+), (-?[\d.]+)\) mm")
 
 
-def until(page, predicate_js: str, timeout: float = 30_000):  # type: ignore[no-untyped-def]
+def until(page, predicate_js: str, timeout: float = PAGE_WAIT_MS):  # type: ignore[no-untyped-def]
     """Wait until `predicate_js` is true in `page`, read every POLL_MS, for up to `timeout`
     milliseconds (Playwright's own name and unit, which the callers pass on)."""
     return page.wait_for_function(predicate_js, timeout=timeout, polling=POLL_MS)
@@ -64,8 +73,8 @@ def _load(  # type: ignore[no-untyped-def]
 
 
 def _ready(page, control: bool):  # type: ignore[no-untyped-def]
-    page.get_by_role("button", name="Send cmd").wait_for(timeout=60_000)
-    until(page, "document.querySelector('#ptwl-telemetry')?.dataset.seq > 0", timeout=30_000)
+    page.get_by_role("button", name="Send cmd").wait_for()
+    until(page, "document.querySelector('#ptwl-telemetry')?.dataset.seq > 0")
     if control:
         take_control(page)
     return page
@@ -84,7 +93,7 @@ def take_control(page) -> None:  # type: ignore[no-untyped-def]
     confirm = page.get_by_role("button", name=TAKE_FROM)
     if confirm.count():
         confirm.click()
-    until(page, MINE, timeout=10_000)
+    until(page, MINE)
 
 
 MINE = "document.querySelector('#ptwl-control')?.dataset.mine === '1'"
@@ -110,7 +119,7 @@ def command_id(page) -> str:  # type: ignore[no-untyped-def]
     return page.locator("#ptwl-command").get_attribute("data-id") or ""
 
 
-def wait_status(page, wanted: str, timeout_s: float = 30.0, after: str | None = None) -> None:  # type: ignore[no-untyped-def]
+def wait_status(page, wanted: str, timeout_s: float = PAGE_WAIT_MS / 1000, after: str | None = None) -> None:  # type: ignore[no-untyped-def]
     """Wait until the command line shows `wanted` for a command other than `after` (the id shown
     before sending: the line is shared, so it may still show an earlier command's exit)."""
     newer = f" && el.dataset.id !== '{after}'" if after is not None else ""

@@ -75,7 +75,6 @@ def attack(
             until(
                 page,
                 "window.results.console && window.results.telemetry && window.results.stop",
-                timeout=20_000,
             )
             results = page.evaluate("window.results")
             time.sleep(0.5)  # a STOP that got through would have ended the command by now

@@ -20,6 +20,7 @@ from ptwl.launcher import free_port, running_console, running_proxy, running_ser
 from ptwl.recording.reader import read
 from ptwl.up import RestartBudget
 from tests.console_page import (
+    PAGE_WAIT_MS,
     command_id,
     command_status,
     inputs_for,
@@ -76,7 +77,7 @@ def test_ptwl_typed_and_sent_from_the_page_reaches_its_goal_or_warns_first(brows
     set_fields(page, "Translation [mm]", 0, 0, -100)  # 100 mm in 1 s: B v = 100 N against 20 N
     set_fields(page, "Duration [s]", 1.0)
     previous = send(page, "Send cmd")
-    page.get_by_text("check the approach").first.wait_for(timeout=10_000)
+    page.get_by_text("check the approach").first.wait_for()
     assert page.get_by_text("force_threshold 20 N").first.is_visible()
     wait_status(page, "goal_reached", after=previous)  # free space: nothing to hit, still accepted
     page.close()
@@ -100,10 +101,8 @@ def test_rwe_and_dither_from_the_page_end_with_their_exits(browser, stack) -> No
     page.close()
 
 
-# [s] The link of the next test. The uplink is the time the page has to show the commanded target
-# "at once" (before the command could reach the robot): at 1 s a loaded browser took 1.2 s once,
-# with a core hogged and a second browser beside it; drawn only on the robot's word it would take
-# the round trip, 3 s.
+# [s] The link of the next test: a 3 s round trip, the time by which a commanded target drawn only
+# on the robot's word would come.
 UPLINK_S, DOWNLINK_S = 2.0, 1.0
 
 
@@ -113,7 +112,7 @@ def test_three_second_round_trip_shows_intent_at_once_and_the_robot_later(browse
     page = open_console(browser, stack[2].url)
     profile = {"uplink": UPLINK_S, "downlink": DOWNLINK_S}
     httpx.put(link.url + "/_link/profile", json=profile).raise_for_status()
-    until(page, "Number(document.querySelector('#ptwl-telemetry')?.dataset.age) > 0.9", timeout=10_000)
+    until(page, "Number(document.querySelector('#ptwl-telemetry')?.dataset.age) > 0.9")
     set_fields(page, "Translation [mm]", 0, 0, 10)  # tool z down: 10 mm down
     time.sleep(0.5)
     start = port_mm(page)
@@ -121,10 +120,10 @@ def test_three_second_round_trip_shows_intent_at_once_and_the_robot_later(browse
     # From when the click was delivered: Playwright's click() first waits for the button to be
     # stable over several animation frames, which takes ~1 s with software WebGL.
     t0 = time.monotonic()
-    page.locator("#ptwl-commanded").wait_for(timeout=1000 * UPLINK_S)
+    page.locator("#ptwl-commanded").wait_for()
     commanded_after = time.monotonic() - t0
     moved_after = None
-    while time.monotonic() - t0 < 10.0:
+    while time.monotonic() - t0 < PAGE_WAIT_MS / 1000:
         if abs(port_mm(page)[2] - start[2]) > 0.2:
             moved_after = time.monotonic() - t0
             break
@@ -133,13 +132,13 @@ def test_three_second_round_trip_shows_intent_at_once_and_the_robot_later(browse
     time.sleep(0.6)
     ARTIFACTS.mkdir(exist_ok=True)
     page.screenshot(path=str(ARTIFACTS / "console-mid-task.png"))
-    wait_status(page, "goal_reached", timeout_s=15.0, after=before)
+    wait_status(page, "goal_reached", after=before)
     reset(link)
     page.close()
-    # The commanded target shows before the command could even have reached the robot (the
-    # uplink) -- typically 0.2-0.5 s here, the browser drawing ~10 frames/s in software WebGL --
-    # and at least a second before the robot's port moves.
-    assert commanded_after < UPLINK_S
+    # The commanded target shows at least a second before the robot's port moves: drawn only on
+    # the robot's word it would come with the move, a round trip (3 s) after the click. (It shows
+    # in 0.2-0.5 s on a quiet machine, the browser drawing ~10 frames/s in software WebGL; that
+    # figure is a wall-clock latency, not asserted here: a loaded browser took 1.2 s once.)
     assert moved_after is not None and moved_after - commanded_after >= 1.0
     # The robot's port shows moving a round trip (3 s) after the click; t0 comes after the click
     # by as long as click() took to return, so at least the uplink after t0.
@@ -161,7 +160,7 @@ def test_console_says_when_the_robot_restarts_and_reconnects(browser) -> None:  
         set_fields(page, "Translation [mm]", 0, 0, -30)
         set_fields(page, "Duration [s]", 30.0)
         previous = send(page, "Send cmd")
-        wait_status(page, "running", timeout_s=15.0, after=previous)
+        wait_status(page, "running", after=previous)
         cut_off = command_id(page)
         robot.stop()
         wait_text(page, "no telemetry", 15.0)
@@ -224,7 +223,6 @@ def test_ptwl_up_restarts_a_crashed_child_and_the_old_tab_carries_on(browser, tm
         until(
             page,
             f"Number(document.querySelector('#ptwl-telemetry')?.dataset.seq) > {seq + 50}",
-            timeout=30_000,
         )
         assert not page.locator("#ptwl-dead").is_visible()
         page.close()
@@ -263,11 +261,11 @@ def test_a_fresh_console_behind_a_3_s_link_shows_send_before_the_robot_answers(b
         page = browser.new_page(viewport={"width": 1100, "height": 720}, bypass_csp=True)  # string predicates
         page.goto(console.url, wait_until="commit")
         # No wall-clock bound in the waits either (what is asserted is the order): a page took
-        # over 10 s to show Send in a hogged CI run (b83a735), as long as any page may (_ready's 60).
-        page.get_by_role("button", name="Send cmd").wait_for(timeout=60_000)
+        # over 10 s to show Send in a hogged CI run (b83a735); they wait PAGE_WAIT_MS, like every page.
+        page.get_by_role("button", name="Send cmd").wait_for()
         send_after = time.monotonic() - started
         # Behind the link for real: the robot's first state comes at least a downlink later.
-        until(page, "document.querySelector('#ptwl-telemetry')?.dataset.seq > 0", timeout=60_000)
+        until(page, "document.querySelector('#ptwl-telemetry')?.dataset.seq > 0")
         state_after = time.monotonic() - started
         page.close()
     # Send came before anything the robot sent could arrive: the panels did not wait for it. (The
@@ -275,3 +273,13 @@ def test_a_fresh_console_behind_a_3_s_link_shows_send_before_the_robot_answers(b
     # fresh_console_send_visible_s_at_3s_rtt; a wall-clock bound here failed under load.)
     assert state_after >= 1.5, state_after
     assert send_after < state_after, (send_after, state_after)
+
+
+def test_the_harness_closes_the_pages_a_test_left_open(browser) -> None:  # type: ignore[no-untyped-def]
+    """A failed test skips its own `page.close()`; the harness closes what it left (conftest's
+    pages_closed), so no page goes on drawing under the tests after it."""
+    kept, closed = browser.new_page(), browser.new_page()
+    closed.close()
+    assert browser.close_pages() == 1
+    assert kept.is_closed()
+    assert browser.close_pages() == 0

@@ -44,7 +44,7 @@ def test_taking_control_from_another_operator_asks_first(browser, stack) -> None
     assert control(holder)[0] == "1"
     other.get_by_role("button", name="Take control").click()
     dialog = other.get_by_text("Take control?")
-    dialog.wait_for(timeout=5_000)
+    dialog.wait_for()
     assert "has control now" in other.locator("body").inner_text()
     time.sleep(0.5)
     assert control(holder)[0] == "1" and control(other)[0] == "0"  # nothing taken yet
@@ -53,8 +53,8 @@ def test_taking_control_from_another_operator_asks_first(browser, stack) -> None
     assert control(holder)[0] == "1" and control(other)[0] == "0"  # cancelled: nothing taken
     other.get_by_role("button", name="Take control").click()
     other.get_by_role("button", name="Take control from them").click()
-    until(other, "document.querySelector('#ptwl-control')?.dataset.mine === '1'", timeout=5_000)
-    until(holder, "document.querySelector('#ptwl-control')?.dataset.mine === '0'", timeout=5_000)
+    until(other, "document.querySelector('#ptwl-control')?.dataset.mine === '1'")
+    until(holder, "document.querySelector('#ptwl-control')?.dataset.mine === '0'")
     assert holder.get_by_text("Control taken").count() >= 1  # the one who lost it is told
     holder.close()
     other.close()
@@ -70,18 +70,18 @@ def test_a_preview_says_computing_goes_stale_when_the_fields_change_and_clears_o
     set_fields(page, "Duration [s]", 1.0)
     page.evaluate(RECORD_PREVIEW)
     page.get_by_role("button", name="Preview").click()
-    until(page, "document.querySelector('#ptwl-preview')?.dataset.exit === 'goal_reached'", timeout=30_000)
+    until(page, "document.querySelector('#ptwl-preview')?.dataset.exit === 'goal_reached'")
     assert preview_state(page) == ("", "goal_reached")
     seen = page.evaluate("window.ptwlPreview")
     assert seen[seen.index(["computing", ""]) + 1 :][-1] == ["", "goal_reached"]  # computing came first
     set_fields(page, "Duration [s]", 2.0)  # not what was previewed any more
-    until(page, "document.querySelector('#ptwl-preview')?.dataset.state === 'stale'", timeout=5_000)
+    until(page, "document.querySelector('#ptwl-preview')?.dataset.state === 'stale'")
     assert "STALE" in page.locator("#ptwl-preview").inner_text()
     set_fields(page, "Duration [s]", 1.0)  # what was previewed again: no longer stale
-    until(page, "document.querySelector('#ptwl-preview')?.dataset.state === ''", timeout=5_000)
+    until(page, "document.querySelector('#ptwl-preview')?.dataset.state === ''")
     assert preview_state(page) == ("", "goal_reached")
     before = send(page, "Send cmd")
-    until(page, "document.querySelector('#ptwl-preview')?.dataset.exit === ''", timeout=5_000)
+    until(page, "document.querySelector('#ptwl-preview')?.dataset.exit === ''")
     assert "no preview" in page.locator("#ptwl-preview").inner_text()
     wait_status(page, "goal_reached", after=before)
     page.close()

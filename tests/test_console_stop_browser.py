@@ -92,7 +92,7 @@ def test_a_stop_lost_in_a_blackout_is_in_view_in_red_and_retried_until_confirmed
         blackouts=[{"start": 0.0, "duration": BLACKOUT_S, "mode": "drop"}],
     )
     page.get_by_role("button", name="STOP").click()
-    until(page, "document.querySelector('#ptwl-stop')?.dataset.phase === 'failed'", timeout=5_000)
+    until(page, "document.querySelector('#ptwl-stop')?.dataset.phase === 'failed'")
     # Retried while the blackout lasts, each failure said and counted ...
     # ... and in red while it fails (read in one go with its count: it is redrawn with each
     # attempt, and on a loaded machine a later read came after the blackout, the STOP confirmed).
@@ -101,7 +101,7 @@ def test_a_stop_lost_in_a_blackout_is_in_view_in_red_and_retried_until_confirmed
         " return Number(stop?.dataset.attempts) >= 2 && stop.dataset.phase === 'failed'"
         " && getComputedStyle(stop).backgroundColor === 'rgb(224, 49, 49)'; })()"
     )
-    until(page, attempts_2_in_red, timeout=5_000)
+    until(page, attempts_2_in_red)
     text = page.locator("#ptwl-stop").inner_text()
     assert "NOT CONFIRMED (link dropped the request (blackout))" in text
     assert "the robot may still be moving" in text
@@ -116,7 +116,6 @@ def test_a_stop_lost_in_a_blackout_is_in_view_in_red_and_retried_until_confirmed
         page,
         "(() => { const line = document.querySelector('#ptwl-link');"
         " return line?.innerText.includes('no telemetry for') && line.dataset.level === 'stale'; })()",
-        timeout=5_000,
     )
     # After the blackout a retry gets through and the robot confirms it.
     until(
@@ -131,7 +130,6 @@ def test_a_stop_lost_in_a_blackout_is_in_view_in_red_and_retried_until_confirmed
     until(
         page,
         "document.querySelector('#ptwl-link')?.innerText.includes('messages lost in a gap')",
-        timeout=5_000,
     )
     page.close()
     set_link(link)

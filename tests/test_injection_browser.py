@@ -61,7 +61,7 @@ def test_markup_in_every_outside_string_shows_as_text(browser: object, stack: An
     httpx.put(link.url + "/_link/profile", json={"description": PAYLOAD}).raise_for_status()
     page = _load(browser, console.url, (1100, 720), csp=True)  # the policy users get
     try:
-        page.locator("#ptwl-link-profile", has_text="onerror").wait_for(state="attached", timeout=60_000)
+        page.locator("#ptwl-link-profile", has_text="onerror").wait_for(state="attached")
         assert PAYLOAD in page.locator("#ptwl-link-profile").text_content()
         _no_injected_markup(page)
     finally:
@@ -137,14 +137,14 @@ def test_markup_in_a_crafted_recording_shows_as_text_in_replay(browser: object, 
     ) as replay:
         page = _load(browser, replay.url, (1100, 900), csp=True)
         try:
-            page.locator('#ptwl-replay[data-playing="0"]').wait_for(state="attached", timeout=60_000)
+            page.locator('#ptwl-replay[data-playing="0"]').wait_for(state="attached")
             # The first state drawn: the page is up (this page keeps its script policy, so it waits
             # by locators). Pressed before it, once with a core hogged, End never seeked.
-            page.locator('#ptwl-telemetry:not([data-seq=""])').wait_for(state="attached", timeout=30_000)
+            page.locator('#ptwl-telemetry:not([data-seq=""])').wait_for(state="attached")
             slider = page.get_by_role("slider")
             slider.focus()
             slider.press("End")  # every command event played past
-            page.locator('#ptwl-command[data-status="completed"]').wait_for(state="attached", timeout=20_000)
+            page.locator('#ptwl-command[data-status="completed"]').wait_for(state="attached")
             line = page.locator("#ptwl-command").inner_text()
             assert PAYLOADS[0] in line and PAYLOADS[2] in line, line
             assert PAYLOADS[0].split(" ")[0] in page.locator("#ptwl-history").inner_text()

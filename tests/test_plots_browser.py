@@ -63,7 +63,7 @@ def test_the_force_plot_draws_a_25_n_jam_and_after_its_command_ends(browser, sur
     _, link, console = surface
     page = open_console(browser, console.url, control=False, viewport=(1366, 768))
     assert page.locator(".uplot canvas").count() == 2
-    until(page, "Number(document.querySelector('#ptwl-plot')?.dataset.t1) > 1", timeout=15_000)
+    until(page, "Number(document.querySelector('#ptwl-plot')?.dataset.t1) > 1")
     jam = {
         "type": "ptwl",
         "translation": [0.0, 0.0, GAP_TO_PLATE_M + PAST_PLATE_M],  # tool z points down
@@ -78,7 +78,6 @@ def test_the_force_plot_draws_a_25_n_jam_and_after_its_command_ends(browser, sur
         page,
         "(() => { const el = document.querySelector('#ptwl-plot');"
         f" return el?.dataset.threshold === '{FORCE_THRESHOLD_N}' && Number(el.dataset.force) > 20; }})()",
-        timeout=15_000,
     )
     time.sleep(1.0)  # ten refreshes in contact, the first ones just after the threshold lines came
     force = float(plot(page, "force"))
@@ -93,7 +92,7 @@ def test_the_force_plot_draws_a_25_n_jam_and_after_its_command_ends(browser, sur
     assert min(in_contact.values()) > DRAWN_PX, in_contact
     # The command ends (STOP): the lines go, the traces stay.
     httpx.post(link.url + "/api/stop", timeout=10.0).raise_for_status()
-    until(page, "document.querySelector('#ptwl-plot')?.dataset.threshold === ''", timeout=10_000)
+    until(page, "document.querySelector('#ptwl-plot')?.dataset.threshold === ''")
     time.sleep(1.0)
     after = {
         "force z": canvas_pixels(page, 0, BLUE_DEG),
@@ -141,7 +140,6 @@ def seek(page, position_s: float, sim_time_at) -> float:  # type: ignore[no-unty
         page,
         f"Math.abs(Number(document.querySelector('#ptwl-plot')?.dataset.t1) - {sim_time_at(typed)}) < 0.001"
         f" && Number(document.querySelector('#ptwl-plot')?.dataset.jumps) > {jumps}",
-        timeout=10_000,
     )
     return typed
 
@@ -167,7 +165,7 @@ def test_replay_marks_its_commands_and_plots_after_seeks_while_paused(browser, j
         "replay", str(jam_recording), "--port", str(port), "--paused", health="/", startup_timeout=90.0
     ):
         page = _load(browser, f"http://127.0.0.1:{port}", (1366, 768))
-        until(page, "document.querySelector('#ptwl-replay-marks')?.dataset.count === '2'", timeout=60_000)
+        until(page, "document.querySelector('#ptwl-replay-marks')?.dataset.count === '2'")
         strip = page.locator("#ptwl-replay-marks")
         starts = [float(v) for v in (strip.get_attribute("data-starts") or "").split(",")]
         ends = [float(v) for v in (strip.get_attribute("data-ends") or "").split(",")]
@@ -195,10 +193,10 @@ def test_replay_marks_its_commands_and_plots_after_seeks_while_paused(browser, j
 
         # Played through both commands' ends (the thresholds change twice, then go) to the end: drawn.
         page.get_by_role("button", name="Play").click()
-        until(page, "document.querySelector('#ptwl-plot')?.dataset.threshold === '40.0'", timeout=10_000)
-        until(page, "document.querySelector('#ptwl-plot')?.dataset.threshold === ''", timeout=10_000)
+        until(page, "document.querySelector('#ptwl-plot')?.dataset.threshold === '40.0'")
+        until(page, "document.querySelector('#ptwl-plot')?.dataset.threshold === ''")
         # The recording ends half a second later: there the replay stops by itself.
-        until(page, "document.querySelector('#ptwl-replay')?.dataset.playing === '0'", timeout=10_000)
+        until(page, "document.querySelector('#ptwl-replay')?.dataset.playing === '0'")
         time.sleep(0.3)  # the next refresh
         played = {
             "force z": canvas_pixels(page, 0, BLUE_DEG),

@@ -176,8 +176,8 @@ def test_the_console_replays_a_recording_with_play_pause_and_seek(
     ) as replay:
         assert replay.url == f"http://127.0.0.1:{port}"  # the console, not its robot stand-in
         page = _load(browser, replay.url, (1100, 900))
-        until(page, "document.querySelector('#ptwl-replay')?.dataset.playing === '0'", timeout=60_000)
-        until(page, "document.querySelector('#ptwl-telemetry')?.dataset.seq > 0", timeout=30_000)
+        until(page, "document.querySelector('#ptwl-replay')?.dataset.playing === '0'")
+        until(page, "document.querySelector('#ptwl-telemetry')?.dataset.seq > 0")
         # Watched, not commanded: no form, no control to take, no STOP.
         for button in ("Send cmd", "Take control", "STOP"):
             assert page.get_by_role("button", name=button).count() == 0, button
@@ -191,25 +191,22 @@ def test_the_console_replays_a_recording_with_play_pause_and_seek(
         slider = page.get_by_role("slider")
         slider.focus()
         slider.press("End")
-        until(page, "document.querySelector('#ptwl-command')?.dataset.status === 'completed'", timeout=20_000)
+        until(page, "document.querySelector('#ptwl-command')?.dataset.status === 'completed'")
         last = timeline.telemetry.values[-1]
-        until(
-            page, f"document.querySelector('#ptwl-telemetry')?.dataset.seq == {last['seq']}", timeout=20_000
-        )
+        until(page, f"document.querySelector('#ptwl-telemetry')?.dataset.seq == {last['seq']}")
         assert port_mm(page) == pytest.approx([1000 * v for v in last["port"]["position"]], abs=0.11)
         # Back to the start and play: the playhead moves, the command appears when it was sent.
         slider.press("Home")
-        until(page, "document.querySelector('#ptwl-command')?.dataset.status !== 'completed'", timeout=20_000)
+        until(page, "document.querySelector('#ptwl-command')?.dataset.status !== 'completed'")
         page.get_by_role("button", name="Play").click()
-        until(page, "document.querySelector('#ptwl-replay')?.dataset.playing === '1'", timeout=10_000)
-        until(page, "Number(document.querySelector('#ptwl-replay')?.dataset.position) > 0.5", timeout=10_000)
+        until(page, "document.querySelector('#ptwl-replay')?.dataset.playing === '1'")
+        until(page, "Number(document.querySelector('#ptwl-replay')?.dataset.position) > 0.5")
         until(
             page,
             "['running', 'completed'].includes(document.querySelector('#ptwl-command')?.dataset.status)",
-            timeout=20_000,
         )
         page.get_by_role("button", name="Pause").click()
-        until(page, "document.querySelector('#ptwl-replay')?.dataset.playing === '0'", timeout=10_000)
+        until(page, "document.querySelector('#ptwl-replay')?.dataset.playing === '0'")
         paused_at = float(page.locator("#ptwl-replay").get_attribute("data-position") or "nan")
         time.sleep(0.6)
         status = httpx.get(f"{robot_url(replay.output)}/_replay", timeout=5.0).json()
