@@ -780,13 +780,16 @@ def test_a_desk_whose_browser_has_gone_is_forgotten_and_the_others_are_still_tol
     before its disconnect came, and the scene thread died on the first of them (the desks after
     it were never told)."""
     wait_for_state(console)
-    with viser_client(console) as gone, viser_client(console) as staying:
+    # Removed before the second desk is made: stub desks share the server's scene, where the
+    # second's marks (same names) would supersede, and so remove, the first's.
+    with viser_client(console) as gone:
         gone.preview.marks.attractor.remove()  # viser removed this browser's handles
-        told: list[str] = []
-        original = staying.panel.show_scene_task
-        staying.panel.show_scene_task = lambda scene: (told.append(scene), original(scene))  # type: ignore[method-assign]
-        console.desks.scene_drawn("free_space")
-        desks = console.desks.all()
+        with viser_client(console) as staying:
+            told: list[str] = []
+            original = staying.panel.show_scene_task
+            staying.panel.show_scene_task = lambda scene: (told.append(scene), original(scene))  # type: ignore[method-assign]
+            console.desks.scene_drawn("free_space")
+            desks = console.desks.all()
     assert told == ["free_space"]
     assert gone not in desks and staying in desks
 
