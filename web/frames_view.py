@@ -26,8 +26,8 @@ class FramesView:
         wanted = {f["name"]: f for f in frames}
         for name in [n for n in self._drawn if n not in wanted]:
             self._poses.pop(name, None)
-            for handle in self._drawn.pop(name):
-                handle.remove()
+            axes, _label = self._drawn.pop(name)
+            axes.remove()  # and its label, its child (removed again, viser warned in every run)
         for name, frame in wanted.items():
             pose = frame["pose"]
             if self._poses.get(name) == pose:
