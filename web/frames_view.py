@@ -15,7 +15,8 @@ LABEL_OFFSET_M = (0.0, 0.0, AXES_LENGTH_M)
 class FramesView:
     def __init__(self, scene: viser.SceneApi) -> None:
         self._scene = scene
-        self._drawn: dict[str, tuple[viser.FrameHandle, viser.LabelHandle]] = {}
+        # Each frame's axes; its name label is their child, shown, hidden and removed with them.
+        self._drawn: dict[str, viser.FrameHandle] = {}
         self._poses: dict[str, dict[str, Any]] = {}  # as last drawn: an unchanged frame sends nothing
         self._visible = True
 
@@ -26,8 +27,7 @@ class FramesView:
         wanted = {f["name"]: f for f in frames}
         for name in [n for n in self._drawn if n not in wanted]:
             self._poses.pop(name, None)
-            axes, _label = self._drawn.pop(name)
-            axes.remove()  # and its label, its child (removed again, viser warned in every run)
+            self._drawn.pop(name).remove()  # its label too (removed again, viser warned)
         for name, frame in wanted.items():
             pose = frame["pose"]
             if self._poses.get(name) == pose:
@@ -40,15 +40,15 @@ class FramesView:
                     origin_radius=2 * AXES_RADIUS_M,
                     visible=self._visible,
                 )
-                label = self._scene.add_label(
+                self._scene.add_label(
                     f"/task_frames/{name}/label", name, position=LABEL_OFFSET_M, anchor="bottom-center"
                 )
-                self._drawn[name] = (axes, label)
-            axes = self._drawn[name][0]
+                self._drawn[name] = axes
+            axes = self._drawn[name]
             axes.position, axes.wxyz = pose["position"], pose["quaternion"]
             self._poses[name] = pose
 
     def set_visible(self, visible: bool) -> None:
         self._visible = visible
-        for axes, _ in self._drawn.values():
-            axes.visible = visible  # the label is its child: it goes with it
+        for axes in self._drawn.values():
+            axes.visible = visible
