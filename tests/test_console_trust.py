@@ -686,18 +686,21 @@ def test_the_bar_counts_down_to_a_loss_of_signal_and_a_send_that_may_outlast_it_
         warning = page.locator("#ptwl-los-warning").inner_text()
         assert "It may run 6.0 s (its watchdog)" in warning and "signal is lost in" in warning
         assert len(client.commands(limit=100)) == before  # nothing went before the operator said
+
         # Its latest start: the loss at 6.5 s less its 1 s, in the robot's sim time: the robot's
         # sim time now plus what is left, read just before the click and again once it is sent;
         # the console's reckoning falls between. (Read once, afterwards, it was 0.5 s off in a
         # hogged run: a starved robot's sim time falls behind the wall clock meanwhile.)
-        latest_start = put_at + 6.5 - 1.0
-        before_click = client.state().sim_time + latest_start - time.monotonic()
+        def latest_start_in_sim_time() -> float:
+            return client.state().sim_time + (put_at + 6.5 - 1.0) - time.monotonic()
+
+        before_click = latest_start_in_sim_time()
         page.get_by_role("button", name="Send: start by sim time").click()
         deadline = time.monotonic() + 5.0
         while len(client.commands(limit=100)) == before and time.monotonic() < deadline:
             time.sleep(0.05)
         sent = client.commands(limit=1)[-1]
-        once_sent = client.state().sim_time + latest_start - time.monotonic()
+        once_sent = latest_start_in_sim_time()
     low, high = sorted((before_click, once_sent))
     assert low - 0.25 <= sent.params["valid_until_sim_time"] <= high + 0.25, (before_click, once_sent)
     until(page, f"{SCHEDULE_LINE}?.dataset.los === '1'")
