@@ -673,10 +673,12 @@ def test_the_bar_counts_down_to_a_loss_of_signal_and_a_send_that_may_outlast_it_
     robot, link, console = stack
     page = open_console(browser, console.url)
     set_fields(page, "Duration [s]", 1)  # the watchdog follows: duration + 5 = 6 s
-    put_at = time.monotonic()
+    # The schedule starts when the link takes it: between these two (a loaded PUT took 0.26 s).
+    put_from = time.monotonic()
     set_link(link, schedule={"contacts": [{"start": 0.0, "end": 6.5}, {"start": 10.5, "end": 600.0}]})
+    put_until = time.monotonic()
     until(page, f"{SCHEDULE_LINE}?.innerText.includes('signal lost in')")
-    time.sleep(max(0.0, put_at + 1.0 - time.monotonic()))  # past 0.5 s: 6 s can no longer fit
+    time.sleep(max(0.0, put_until + 1.0 - time.monotonic()))  # past 0.5 s: 6 s can no longer fit
     line = page.locator("#ptwl-schedule").inner_text()
     assert "in contact until" in line and "for 4 s" in line, line
     with RobotClient(robot.url) as client:
@@ -688,11 +690,13 @@ def test_the_bar_counts_down_to_a_loss_of_signal_and_a_send_that_may_outlast_it_
         assert len(client.commands(limit=100)) == before  # nothing went before the operator said
 
         # Its latest start: the loss at 6.5 s less its 1 s, in the robot's sim time: the robot's
-        # sim time now plus what is left, read just before the click and again once it is sent;
-        # the console's reckoning falls between. (Read once, afterwards, it was 0.5 s off in a
-        # hogged run: a starved robot's sim time falls behind the wall clock meanwhile.)
-        def latest_start_in_sim_time() -> float:
-            return client.state().sim_time + (put_at + 6.5 - 1.0) - time.monotonic()
+        # sim time now plus what is left, read just before the click and again once it is sent,
+        # from either end of the PUT; the console's reckoning falls between. (Read once,
+        # afterwards, it was 0.5 s off in a hogged run: a starved robot's sim time falls behind
+        # the wall clock meanwhile; and from before the PUT, 0.26 s early in another.)
+        def latest_start_in_sim_time() -> tuple[float, float]:
+            left_from_now_s = client.state().sim_time + 6.5 - 1.0 - time.monotonic()
+            return left_from_now_s + put_from, left_from_now_s + put_until
 
         before_click = latest_start_in_sim_time()
         page.get_by_role("button", name="Send: start by sim time").click()
@@ -701,7 +705,7 @@ def test_the_bar_counts_down_to_a_loss_of_signal_and_a_send_that_may_outlast_it_
             time.sleep(0.05)
         sent = client.commands(limit=1)[-1]
         once_sent = latest_start_in_sim_time()
-    low, high = sorted((before_click, once_sent))
+    low, high = min(before_click + once_sent), max(before_click + once_sent)
     assert low - 0.25 <= sent.params["valid_until_sim_time"] <= high + 0.25, (before_click, once_sent)
     until(page, f"{SCHEDULE_LINE}?.dataset.los === '1'")
     assert page.locator("#ptwl-schedule").inner_text().startswith("LOSS OF SIGNAL for ")
