@@ -9,7 +9,7 @@ from robot_sim.params import PtwlParams, RweParams
 from robot_sim.policies import Finish, Step, run_onboard
 from robot_sim.scenes import fixture_offset, get_scene
 from robot_sim.sim import Simulation
-from tests.helpers import DOWN_WXYZ, machine, report_down, state_params, ten_seeds
+from tests.helpers import DOWN_WXYZ, machine, report_down, seeded_runs, state_params
 
 HOME = Pose((0.378, 0.0, 0.2785), DOWN_WXYZ)
 # robot_sim/machines/builtin/plug.toml: the slides' attractor this far below the face (~6 N down).
@@ -93,15 +93,17 @@ def test_an_outlet_out_of_the_slides_reach_fails_and_is_not_counted() -> None:
     assert [s.params.translation[1] for s in run.steps[1:]] == pytest.approx([0.012, -0.024])
 
 
-def test_ten_seeds_plug_in_onboard_and_the_y_force_ends_the_slide() -> None:
-    runs = ten_seeds("plug")
+def test_seeded_runs_plug_in_onboard_and_the_y_force_ends_the_slide() -> None:
+    runs = seeded_runs("plug")
     assert all(r["success"] and r["end"] == "completed" for r in runs), [(r["seed"], r["why"]) for r in runs]
     assert all(r["max_force_n"] <= 20.0 for r in runs), [r["max_force_n"] for r in runs]
+    slide_counts = []
     for r in runs:
         offset_y = float(fixture_offset(get_scene("plug"), np.random.default_rng(r["seed"]))[1])
         slides = [s for s in r["steps"] if s["behavior"] == "ptwl" and s["params"]["frame"] == "base"]
         # The outlet's side decides the slides: one along +y, or +y then back along -y.
         assert len(slides) == (1 if offset_y > 0.002 else 2 if offset_y < -0.002 else len(slides))
+        slide_counts.append(len(slides))
         if not slides:
             continue  # the prongs fell straight in
         found = slides[-1]
@@ -111,3 +113,4 @@ def test_ten_seeds_plug_in_onboard_and_the_y_force_ends_the_slide() -> None:
         assert -direction * fy > max(abs(fx), abs(fz), 1.0), found["final_wrench"]
         if len(slides) == 2:  # 24 mm back: the wall is met well before the attractor stops
             assert found["exit"] == "wrench_breach" and abs(fy) > 11.0
+    assert sorted(slide_counts) == [0, 1, 2]  # TEST_SEEDS reach the three ways in

@@ -1,8 +1,5 @@
 """Quick-disconnect coupling (paper 2.3.6): a snap fit needing 25-30 N, and its state machine."""
 
-import os
-from concurrent.futures import ProcessPoolExecutor
-
 import pytest
 
 from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose, Ptwl, Rwe
@@ -11,7 +8,7 @@ from robot_sim.params import DitherParams, PtwlParams, RweParams
 from robot_sim.policies import Finish, Step, run_onboard
 from robot_sim.scenes import LATCH_STROKE_M
 from robot_sim.sim import Simulation
-from tests.helpers import DOWN_WXYZ, machine, ptwl_state, report_down, state_params
+from tests.helpers import DOWN_WXYZ, machine, ptwl_state, report_down, seeded_runs, state_params
 
 HOME = Pose((0.378, 0.0, 0.2765), DOWN_WXYZ)
 # robot_sim/machines/builtin/quick_connect.toml: travel from home past which the nipple has
@@ -104,16 +101,11 @@ def test_the_latch_needs_25_to_30_n_and_the_default_threshold_stops_at_the_colla
     assert z_before - z_after == pytest.approx(LATCH_STROKE_M, abs=3e-4)
 
 
-def seeded(seed: int) -> tuple[bool, str, float, int]:
-    run = run_onboard("quick_connect", seed)
-    return run.success, run.end, run.as_dict()["max_force_n"], len(run.steps)
-
-
-def test_ten_seeds_latch_onboard_and_the_machine_agrees() -> None:
-    with ProcessPoolExecutor(max_workers=os.cpu_count()) as pool:
-        runs = list(pool.map(seeded, range(10)))
-    assert all(success and end == "completed" for success, end, _, _ in runs), runs
-    assert all(25.0 <= peak <= 40.0 for _, _, peak, _ in runs), runs  # the latch's force, under the limit
+def test_seeded_runs_latch_onboard_and_the_machine_agrees() -> None:
+    runs = seeded_runs("quick_connect")
+    assert all(r["success"] and r["end"] == "completed" for r in runs), [(r["seed"], r["why"]) for r in runs]
+    peaks = [r["max_force_n"] for r in runs]
+    assert all(25.0 <= peak <= 40.0 for peak in peaks), peaks  # the latch's force, under the limit
 
 
 def test_a_machine_that_pushes_too_softly_fails_and_is_not_a_success() -> None:
