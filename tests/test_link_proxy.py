@@ -138,13 +138,13 @@ def test_one_second_each_way_200_messages_per_second(fast_server: ServiceProcess
     )  # none lost, in order
     # End to end (server wall clock to this client): never early; typically ~1 ms late idle. The
     # rest is this Python client's own scheduling while it also sends 200 messages/s: the median
-    # 7.9 ms late with three test workers on 2 cores, 11.2 ms in a hogged CI run (p99 127 ms with
-    # a core hogged and two tests at once, 298 ms beside a browser test). So the median within
-    # 25 ms and the tail within HOST_STALL_S; the link's own timing is held to MEDIAN_TOLERANCE_S
-    # per message from its record, below.
+    # 7.9 ms late with three test workers on 2 cores, 11.2 and 26.0 ms in hogged CI runs beside the
+    # browser files (p99 127 ms with a core hogged and two tests at once, 298 ms beside a browser
+    # test). So the median within 50 ms and the tail within HOST_STALL_S; the link's own timing is
+    # held to MEDIAN_TOLERANCE_S per message from its record, below.
     ages = sorted(t - m["sent_at"] for t, m in states)
     assert ages[0] >= 1.0 - 0.002
-    assert ages[len(ages) // 2] <= 1.0 + 0.025 and ages[int(0.99 * len(ages))] <= 1.0 + HOST_STALL_S
+    assert ages[len(ages) // 2] <= 1.0 + 0.05 and ages[int(0.99 * len(ages))] <= 1.0 + HOST_STALL_S
     records = read_record(record)
     down = check_record(records, "downlink", len(states))  # at least what this client received
     up = check_record(records, "uplink", 5 * 200)  # this client's own 200/s
