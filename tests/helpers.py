@@ -100,8 +100,8 @@ def _onboard(task_seed: tuple[str, int]) -> dict[str, Any]:
 
 # The seeds each task's machine is run on in the tests: three of 0-9, chosen to reach every branch
 # its machine has and the ends of what the seeds perturb (measured on seeds 0-9). The success rates
-# over many seeds are the benchmarks' (`ptwl task bench TASK --seeds 100`, docs/robot.md); the
-# ten runs a task took here before were ~60 CPU-s of the inner loop's ~540.
+# over many seeds are the benchmarks' (`ptwl task bench TASK --seeds 100`, docs/robot.md); ten
+# seeds of all nine tasks were ~60 CPU-s of the inner loop's ~540.
 TEST_SEEDS: dict[str, tuple[int, ...]] = {
     "berthing": (0, 1, 2),  # slides left (0, 1: the shortest run) and right (2)
     "door": (0, 3, 4),  # the most and the least swing (3, 4), the hardest push (4)
@@ -115,11 +115,14 @@ TEST_SEEDS: dict[str, tuple[int, ...]] = {
 }
 
 
-def seeded_runs(task: str) -> list[dict[str, Any]]:
-    """`task`'s machine run headless on its TEST_SEEDS, on every core: each run's `as_dict()`."""
+def completed_runs(task: str) -> list[dict[str, Any]]:
+    """`task`'s machine run headless on its TEST_SEEDS, on every core, each asserted a success
+    that its machine completed: each run's `as_dict()`."""
     seeds = TEST_SEEDS[task]
     with ProcessPoolExecutor(max_workers=min(len(seeds), os.cpu_count() or 1)) as pool:
-        return list(pool.map(_onboard, [(task, seed) for seed in seeds]))
+        runs = list(pool.map(_onboard, [(task, seed) for seed in seeds]))
+    assert all(r["success"] and r["end"] == "completed" for r in runs), [(r["seed"], r["why"]) for r in runs]
+    return runs
 
 
 # AnyIO's worker threads (FastAPI runs sync dependencies in them) belong to AnyIO's pool, which
