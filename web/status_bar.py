@@ -6,6 +6,8 @@ delay): a blackout or a dead link shows as a growing age that turns amber, then 
 frozen "1.50 s old - connected".
 """
 
+import contextlib
+import logging
 import math
 import time
 from collections.abc import Callable
@@ -34,6 +36,15 @@ DEAD_MAN_HTML = Markup(
     'background:#e03131;color:white;font-weight:700;padding:2px 6px">'
     "CONSOLE NOT RESPONDING: nothing on this page is current</div>"
 ).format(PAGE_DEAD_AFTER_S)
+# What the bar says while its ticks fail (the error, from our own code, escaped all the same).
+# The count changes the content each tick, so the page's dead-man countdown restarts as usual.
+FAILED_HTML = Markup(
+    '<div id="ptwl-bar" data-failed="{count}" style="border-left:8px solid #e03131;padding:2px 8px;'
+    'font-size:0.85em;color:#e03131">{dead}<div id="ptwl-telemetry" data-level="stale">'
+    "<b>STATUS UNKNOWN</b>: the console cannot show the robot's state ({error}); "
+    "tried {count} times, trying again</div></div>"
+)
+LOG = logging.getLogger(__name__)
 Level = Literal["fresh", "late", "stale"]
 LEVEL_COLORS = {"fresh": "#2f9e44", "late": "#f08c00", "stale": "#e03131"}
 
@@ -87,6 +98,10 @@ class StatusBar(Worker):
         self._inputs = inputs
         self._on_level = on_level
         self._on_tick = on_tick  # what else draws this model each tick (the ghost's label)
+        self._level_shown: Level | None = None
+        self._stop_shown: StopState | None = None
+        self._failing = ""  # the error the last tick failed with ("" it did not)
+        self._failed_ticks = 0  # in a row
         self.panel = gui.add_panel()
         first = inputs()
         with self.panel.add_tab("Robot status"):
@@ -103,19 +118,39 @@ class StatusBar(Worker):
         super().__init__("ptwl-status-bar", join_timeout_s=2.0)
 
     def _run(self) -> None:
-        shown: Level | None = None
-        stop_shown: StopState | None = None
         while not self._closed.wait(TICK_S):
-            inputs = self._inputs()
-            age, level = _judge(inputs, time.time())
-            show(self.html, _render(inputs, age, level))
-            self._on_tick(inputs)
-            if inputs.stop != stop_shown:
-                stop_shown = inputs.stop
-                show(self.stop_html, _stop_html(inputs.stop))
-            if level != shown:
-                shown = level
-                self._on_level(level)
+            try:
+                self._tick()
+            except Exception as error:  # one failed tick must not freeze the bar for every page
+                self._failed(error)
+
+    def _tick(self) -> None:
+        inputs = self._inputs()
+        age, level = _judge(inputs, time.time())
+        show(self.html, _render(inputs, age, level))
+        self._on_tick(inputs)
+        if inputs.stop != self._stop_shown:
+            self._stop_shown = inputs.stop
+            show(self.stop_html, _stop_html(inputs.stop))
+        self._show_level(level)
+        self._failing, self._failed_ticks = "", 0
+
+    def _failed(self, error: Exception) -> None:
+        """The bar says in red that it cannot show the robot's state, and the robot is drawn
+        stale; the next tick tries again. Each new error is logged once, with its traceback."""
+        said = f"{type(error).__name__}: {error}"[:200]
+        self._failed_ticks += 1
+        if said != self._failing:
+            self._failing = said
+            LOG.exception("the status bar's tick failed; it tries again every %.2f s", TICK_S)
+        with contextlib.suppress(Exception):  # e.g. the page's handles already removed
+            show(self.html, FAILED_HTML.format(count=self._failed_ticks, dead=DEAD_MAN_HTML, error=said))
+            self._show_level("stale")
+
+    def _show_level(self, level: Level) -> None:
+        if level != self._level_shown:
+            self._level_shown = level
+            self._on_level(level)
 
 
 def _render(inputs: BarInputs, age: float | None, level: Level) -> Markup:

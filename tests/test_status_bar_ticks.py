@@ -1,0 +1,68 @@
+"""The status bar's ticker outlives a tick that fails (it died on the first exception, and the
+bar froze for every page until the console restarted): while ticks fail the bar says so in red
+and the robot is drawn stale; the first tick that works shows the robot's state again."""
+
+import logging
+import re
+import threading
+import time
+from collections.abc import Callable
+
+import pytest
+import viser
+
+from robot_sim.sim import Simulation
+from robot_sim.telemetry import state_fields
+from web.status_bar import TICK_S, BarInputs, Level, StatusBar
+from web.telemetry_health import LinkLine
+
+WAIT_S = 30.0  # a bound on the ticker's next few ticks (TICK_S apart), never reached when it works
+
+
+def wait_for(what: Callable[[], bool]) -> None:
+    deadline = time.monotonic() + WAIT_S
+    while not what():
+        assert time.monotonic() < deadline, "the bar did not get there"
+        time.sleep(TICK_S / 4)
+
+
+def failed_ticks(shown: str) -> int:
+    found = re.search(r'data-failed="(\d+)"', shown)
+    return int(found[1]) if found else 0
+
+
+def test_a_failing_tick_is_said_on_the_bar_and_the_next_good_one_shows_the_robot_again(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    state = {**state_fields(Simulation("free_space"), []), "seq": 7, "instance": "a"}
+    failing = threading.Event()
+
+    def inputs() -> BarInputs:
+        if failing.is_set():
+            raise KeyError("<b>port</b>")  # e.g. a state without a field the bar reads
+        return BarInputs(
+            {**state, "sent_at": time.time()}, time.time(), True, LinkLine("fresh", "up"), 0.0, "", ""
+        )
+
+    levels: list[Level] = []
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    bar = StatusBar(server.gui, inputs, levels.append)
+    bar.start()
+    try:
+        wait_for(lambda: "robot state #7" in bar.html.content and levels == ["fresh"])
+        with caplog.at_level(logging.ERROR, logger="web.status_bar"):
+            failing.set()
+            wait_for(lambda: failed_ticks(bar.html.content) >= 3)  # three ticks failed in a row
+        shown = bar.html.content
+        assert "STATUS UNKNOWN" in shown and "robot state" not in shown
+        assert "&lt;b&gt;port&lt;/b&gt;" in shown and "<b>port</b>" not in shown  # data, not markup
+        assert 'id="ptwl-dead"' in shown  # the page's own countdown still restarts with each tick
+        assert levels == ["fresh", "stale"]
+        assert len([r for r in caplog.records if "tick failed" in r.getMessage()]) == 1  # once an error
+        failing.clear()
+        wait_for(lambda: "robot state #7" in bar.html.content and len(levels) == 3)  # level told last
+        assert bar.running and levels == ["fresh", "stale", "fresh"]
+    finally:
+        bar.close()
+        server.stop()
+    assert not bar.running
