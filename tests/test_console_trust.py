@@ -79,9 +79,14 @@ def test_the_age_keeps_counting_through_a_blackout_and_turns_amber_then_red(brow
     stale_text = page.locator("#ptwl-telemetry").inner_text()
     seen = page.evaluate("window.ptwlBar")
     page.close()
-    quiet = [s for s in seen if s[0] > seen[0][0] + 1000.0]  # after what was in flight landed
-    # Nothing arrived, yet the page's age was recomputed at least 4 times a second ...
-    assert len({seq for _, _, seq, _ in quiet}) == 1
+    # From the last state that arrived (what was in flight when the blackout began lands within a
+    # second idle; under load later: three more states after that second, seen with three test
+    # files beside a hogged core), nothing arrived for at least 4.5 s of the 7 watched ...
+    last_seq = seen[-1][2]
+    quiet = [s for s in seen[next(i for i, s in enumerate(seen) if s[2] == last_seq) :]]
+    assert (quiet[-1][0] - quiet[0][0]) / 1000.0 >= 4.5
+    assert {seq for _, _, seq, _ in quiet} == {last_seq}
+    # ... yet the page's age was recomputed at least 4 times a second ...
     per_s = len(quiet) / ((quiet[-1][0] - quiet[0][0]) / 1000.0)
     assert per_s >= 4.0, per_s
     # ... growing with the page's own clock, and the colour followed: amber past RTT + 1 s (RTT 0
