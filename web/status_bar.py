@@ -45,6 +45,7 @@ FAILED_HTML = Markup(
     "tried {count} times, trying again</div></div>"
 )
 LOG = logging.getLogger(__name__)
+LOG_EVERY_S = 10.0  # [s] at most one failed tick logged in this long
 Level = Literal["fresh", "late", "stale"]
 LEVEL_COLORS = {"fresh": "#2f9e44", "late": "#f08c00", "stale": "#e03131"}
 
@@ -102,6 +103,7 @@ class StatusBar(Worker):
         self._stop_shown: StopState | None = None
         self._failing = ""  # the error the last tick failed with ("" it did not)
         self._failed_ticks = 0  # in a row
+        self._logged_at = -math.inf  # [s] monotonic: when a failed tick was last logged
         self.panel = gui.add_panel()
         first = inputs()
         with self.panel.add_tab("Robot status"):
@@ -137,12 +139,15 @@ class StatusBar(Worker):
 
     def _failed(self, error: Exception) -> None:
         """The bar says in red that it cannot show the robot's state, and the robot is drawn
-        stale; the next tick tries again. Each new error is logged once, with its traceback."""
+        stale; the next tick tries again. A new error is logged with its traceback, at most one
+        every LOG_EVERY_S (an error whose text changes each tick would log 12 a second)."""
         said = f"{type(error).__name__}: {error}"[:200]
         self._failed_ticks += 1
-        if said != self._failing:
-            self._failing = said
+        now = time.monotonic()
+        if said != self._failing and now - self._logged_at >= LOG_EVERY_S:
             LOG.exception("the status bar's tick failed; it tries again every %.2f s", TICK_S)
+            self._logged_at = now
+        self._failing = said
         with contextlib.suppress(Exception):  # e.g. the page's handles already removed
             show(self.html, FAILED_HTML.format(count=self._failed_ticks, dead=DEAD_MAN_HTML, error=said))
             self._show_level("stale")
