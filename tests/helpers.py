@@ -2,6 +2,8 @@
 
 import os
 import threading
+import time
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
@@ -138,3 +140,11 @@ def threads_started_since(before: set[threading.Thread]) -> list[str]:
         for t in threading.enumerate()
         if t not in before and t.is_alive() and not t.name.startswith(LIBRARY_POOL_THREADS)
     ]
+
+
+def wait_until(condition: Callable[[], bool], timeout_s: float = 10.0) -> None:
+    """Poll `condition` every 20 ms until it holds; fail after `timeout_s` (a bound, not a check)."""
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        assert time.monotonic() < deadline, "timed out"
+        time.sleep(0.02)

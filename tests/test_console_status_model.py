@@ -2,7 +2,6 @@
 are said by the lines that read it, at once. A real robot, link and console (no browser)."""
 
 import threading
-import time
 from collections.abc import Iterator
 
 import httpx
@@ -10,6 +9,7 @@ import pytest
 
 from ptwl.launcher import ServiceProcess, free_port, running_proxy
 from server.client import RobotClient
+from tests.helpers import wait_until
 from web.app import ConsoleApp
 
 
@@ -22,13 +22,6 @@ def app(server: ServiceProcess) -> Iterator[tuple[ConsoleApp, ServiceProcess]]:
             yield console, link
         finally:
             console.close()
-
-
-def wait_until(condition, timeout_s: float = 10.0) -> None:  # type: ignore[no-untyped-def]
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        assert time.monotonic() < deadline, "timed out"
-        time.sleep(0.02)
 
 
 def test_a_confirmed_stop_ends_the_running_command_on_the_bar_even_if_its_end_event_is_lost(

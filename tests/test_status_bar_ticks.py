@@ -7,24 +7,17 @@ import logging
 import re
 import threading
 import time
-from collections.abc import Callable
 
 import pytest
 import viser
 
 from robot_sim.sim import Simulation
 from robot_sim.telemetry import state_fields
-from web.status_bar import TICK_S, BarInputs, Level, StatusBar
+from tests.helpers import wait_until
+from web.status_bar import BarInputs, Level, StatusBar
 from web.telemetry_health import LinkLine
 
-WAIT_S = 30.0  # a bound on the ticker's next few ticks (TICK_S apart), never reached when it works
-
-
-def wait_for(what: Callable[[], bool]) -> None:
-    deadline = time.monotonic() + WAIT_S
-    while not what():
-        assert time.monotonic() < deadline, "the bar did not get there"
-        time.sleep(TICK_S / 4)
+WAIT_S = 30.0  # a bound on the ticker's next few ticks (0.08 s apart), never reached when it works
 
 
 def failed_ticks(shown: str) -> int:
@@ -51,10 +44,10 @@ def test_a_failing_tick_is_said_on_the_bar_and_the_next_good_one_shows_the_robot
     bar = StatusBar(server.gui, inputs, levels.append)
     bar.start()
     try:
-        wait_for(lambda: "robot state #7" in bar.html.content and levels == ["fresh"])
+        wait_until(lambda: "robot state #7" in bar.html.content and levels == ["fresh"], WAIT_S)
         with caplog.at_level(logging.ERROR, logger="web.status_bar"):
             failing.set()
-            wait_for(lambda: failed_ticks(bar.html.content) >= 3)  # three ticks failed in a row
+            wait_until(lambda: failed_ticks(bar.html.content) >= 3, WAIT_S)  # three ticks failed in a row
         shown = bar.html.content
         assert "STATUS UNKNOWN" in shown and "robot state" not in shown
         assert "&lt;b&gt;port&lt;/b&gt;" in shown and "<b>port</b>" not in shown  # data, not markup
@@ -63,7 +56,8 @@ def test_a_failing_tick_is_said_on_the_bar_and_the_next_good_one_shows_the_robot
         # The text changed with each tick: logged once all the same (at most one in LOG_EVERY_S).
         assert len([r for r in caplog.records if "tick failed" in r.getMessage()]) == 1
         failing.clear()
-        wait_for(lambda: "robot state #7" in bar.html.content and len(levels) == 3)  # level told last
+        # The level is told after the bar is drawn: wait for both.
+        wait_until(lambda: "robot state #7" in bar.html.content and len(levels) == 3, WAIT_S)
         assert bar.running and levels == ["fresh", "stale", "fresh"]
     finally:
         bar.close()
