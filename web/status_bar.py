@@ -39,10 +39,8 @@ DEAD_MAN_HTML = Markup(
 # What the bar says while its ticks fail (the error, from our own code, escaped all the same).
 # The count changes the content each tick, so the page's dead-man countdown restarts as usual.
 FAILED_HTML = Markup(
-    '<div id="ptwl-bar" data-failed="{count}" style="border-left:8px solid #e03131;padding:2px 8px;'
-    'font-size:0.85em;color:#e03131">{dead}<div id="ptwl-telemetry" data-level="stale">'
-    "<b>STATUS UNKNOWN</b>: the console cannot show the robot's state ({error}); "
-    "tried {count} times, trying again</div></div>"
+    '<div id="ptwl-telemetry" data-level="stale" style="color:#e03131"><b>STATUS UNKNOWN</b>: the '
+    "console cannot show the robot's state ({error}); tried {count} times, trying again</div>"
 )
 LOG = logging.getLogger(__name__)
 LOG_EVERY_S = 10.0  # [s] at most one failed tick logged in this long
@@ -101,7 +99,6 @@ class StatusBar(Worker):
         self._on_tick = on_tick  # what else draws this model each tick (the ghost's label)
         self._level_shown: Level | None = None
         self._stop_shown: StopState | None = None
-        self._failing = ""  # the error the last tick failed with ("" it did not)
         self._failed_ticks = 0  # in a row
         self._logged_at = -math.inf  # [s] monotonic: when a failed tick was last logged
         self.panel = gui.add_panel()
@@ -135,21 +132,21 @@ class StatusBar(Worker):
             self._stop_shown = inputs.stop
             show(self.stop_html, _stop_html(inputs.stop))
         self._show_level(level)
-        self._failing, self._failed_ticks = "", 0
+        self._failed_ticks = 0
 
     def _failed(self, error: Exception) -> None:
         """The bar says in red that it cannot show the robot's state, and the robot is drawn
-        stale; the next tick tries again. A new error is logged with its traceback, at most one
-        every LOG_EVERY_S (an error whose text changes each tick would log 12 a second)."""
+        stale; the next tick tries again. A failed tick is logged with its traceback, at most one
+        every LOG_EVERY_S (not 12 a second)."""
         said = f"{type(error).__name__}: {error}"[:200]
         self._failed_ticks += 1
         now = time.monotonic()
-        if said != self._failing and now - self._logged_at >= LOG_EVERY_S:
+        if now - self._logged_at >= LOG_EVERY_S:
             LOG.exception("the status bar's tick failed; it tries again every %.2f s", TICK_S)
             self._logged_at = now
-        self._failing = said
         with contextlib.suppress(Exception):  # e.g. the page's handles already removed
-            show(self.html, FAILED_HTML.format(count=self._failed_ticks, dead=DEAD_MAN_HTML, error=said))
+            body = FAILED_HTML.format(error=said, count=self._failed_ticks)
+            show(self.html, _framed(LEVEL_COLORS["stale"], body, self._failed_ticks))
             self._show_level("stale")
 
     def _show_level(self, level: Level) -> None:
@@ -181,17 +178,13 @@ def _render(inputs: BarInputs, age: float | None, level: Level) -> Markup:
         link = Markup('<div id="ptwl-link" data-level="{}" style="color:{}">{}{}</div>').format(
             inputs.link.level, LEVEL_COLORS[inputs.link.level], inputs.link.text, inputs.note
         )
-    return Markup(
-        '<div id="ptwl-bar" style="border-left:8px solid {color};padding:2px 8px;font-size:0.85em">'
-        "{dead}"
+    body = Markup(
         '<div id="ptwl-telemetry" data-seq="{seq}" data-arrived="{arrived}" data-age="{age}" '
         'data-level="{level}" data-link="{link_up}" data-rtt="{rtt}">{robot}{stale}</div>'
         "{link}{schedule}"
         '<div id="ptwl-running">{command} · <span id="ptwl-holder">control: {holder}</span></div>'
-        "{prediction}{task}{monitor}</div>"
+        "{prediction}{task}{monitor}"
     ).format(
-        color=color,
-        dead=DEAD_MAN_HTML,
         seq=seq,
         arrived=inputs.arrived or "",
         age="" if age is None else age,
@@ -216,6 +209,16 @@ def _render(inputs: BarInputs, age: float | None, level: Level) -> Markup:
             state.get("monitor") if state else None, bool(state and state.get("active_command") is not None)
         ),
     )
+    return _framed(color, body)
+
+
+def _framed(color: str, body: Markup, failed_ticks: int = 0) -> Markup:
+    """The bar's window: its level's colour down the left, and the dead-man banner in every
+    update (each one restarts the page's countdown); `failed_ticks` in a row, if any."""
+    failed = Markup(' data-failed="{}"').format(failed_ticks) if failed_ticks else ""
+    return Markup(
+        '<div id="ptwl-bar"{} style="border-left:8px solid {};padding:2px 8px;font-size:0.85em">{}{}</div>'
+    ).format(failed, color, DEAD_MAN_HTML, body)
 
 
 def _schedule_html(line: str, lost_since: float | None) -> Markup:
