@@ -24,6 +24,8 @@ from web.typed_number import (
     MM,
     SECONDS,
     FieldError,
+    TypedNumber,
+    TypedVector,
     format_number,
     in_field_units,
     parse_number,
@@ -294,3 +296,30 @@ def test_a_vector_written_by_the_console_is_heard_once_and_typing_always(panel: 
     assert len(heard) == 1
     type_into(panel.ptwl.translation, "4", "2", "3")  # as the browser's updates arrive: each one heard
     assert len(heard) == 2
+
+
+def test_a_field_writes_three_decimals_and_the_robots_refusals_of_one_text_add_up(gui: viser.GuiApi) -> None:
+    """Written by the console with three decimals unless told; two rules refusing the same text
+    are both said under it, a new text is judged anew, and clear() forgets what was refused."""
+    duration = TypedNumber(gui, "duration", "Duration [s]", 2.0 / 3.0, SECONDS)
+    assert duration.texts == ("0.667",)
+    duration.value = 1.23456
+    assert duration.texts == ("1.235",)
+    translation = TypedVector(gui, "translation", "Translation [mm]", (1.0 / 3.0, 0.0, 2.5), MM)
+    assert translation.texts == ("0.333", "0", "2.5")
+    translation.value = (0.0, 12.3456, 0.0)
+    assert translation.texts == ("0", "12.346", "0")
+
+    assert duration.refuse("must be > 0 s, got 1.235") == "must be > 0 s, got 1.235 s"
+    duration.refuse("must be <= 1 s, got 1.235")
+    assert duration.reason == "must be > 0 s, got 1.235 s; must be <= 1 s, got 1.235 s"
+    duration.show()  # shown under the field ...
+    assert duration.reason_line.visible and "must be &lt;= 1 s" in str(duration.reason_line.content)
+    duration.show(active=False)  # ... and hidden while the field is not in use
+    assert not duration.reason_line.visible
+    type_into(duration, "0.5")
+    assert duration.reason == ""  # judged anew
+    duration.refuse("must be <= 0.4 s, got 0.5")
+    assert duration.reason == "must be <= 0.4 s, got 0.5 s"  # not added to the old text's
+    duration.clear()
+    assert duration.reason == ""
