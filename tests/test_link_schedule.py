@@ -445,6 +445,26 @@ def test_touching_windows_across_the_period_are_one_contact_and_a_full_plan_neve
     assert plan.next_close(3.0) is None and plan.next_open(1e6 + 0.3) == 1e6 + 0.3
 
 
+def test_touching_windows_inside_a_period_close_together_and_the_last_close_is_last_periods() -> None:
+    """Two windows that touch inside a periodic plan are one contact closing at the second's end,
+    in the same period (not a period later); in the gap at the start of the next period the link
+    last closed at the end of the previous period's last window."""
+    periodic = {
+        "period": 100.0,
+        "contacts": [
+            {"start": 20.0, "end": 30.0},
+            {"start": 30.0, "end": 40.0, "rate_bytes_per_s": 5.0},
+            {"start": 60.0, "end": 70.0},
+        ],
+    }
+    plan = Plan(LinkProfile.model_validate({"schedule": periodic}).schedule, "uplink", 0.0, None, 0.0)
+    assert plan.next_close(25.0) == 40.0 and plan.next_close(125.0) == 140.0
+    assert plan.next_close(65.0) == 70.0
+    assert plan.last_close_before(110.0) == 70.0  # the gap before the next period's first window
+    assert plan.last_close_before(50.0) == 40.0 and plan.last_close_before(10.0) is None  # never before
+    assert plan.last_close_before(35.0) is None  # open
+
+
 def test_ten_thousand_touching_windows_cost_microseconds_a_message() -> None:
     """A hostile plan (found by review: each message walked every touching window): 10,000
     windows of alternating rates; admitting 2,000 messages takes well under a second."""
