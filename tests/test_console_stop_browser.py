@@ -72,16 +72,16 @@ def settled_stop_top(page, still_s: float = 1.0, within_s: float = 20.0) -> floa
     raise AssertionError(f"STOP kept moving for {within_s:g} s (last at {y:.1f} px)")
 
 
-def stop_phase(page) -> str:  # type: ignore[no-untyped-def]
-    return page.locator("#ptwl-stop").get_attribute("data-phase") or ""
-
-
 SCREENS = ((1366, 768), (1920, 1080))  # a laptop's and a desktop's
-RED_AND_FAILED = (
-    "(() => { const stop = document.querySelector('#ptwl-stop');"
-    " return Number(stop?.dataset.attempts) >= ATTEMPTS && stop.dataset.phase === 'failed'"
-    " && getComputedStyle(stop).backgroundColor === 'rgb(224, 49, 49)'; })()"
-)
+
+
+def red_and_failed(attempts: int) -> str:
+    """In the page: STOP failed after at least `attempts`, and in red (read in one go)."""
+    return (
+        "(() => { const stop = document.querySelector('#ptwl-stop');"
+        f" return Number(stop?.dataset.attempts) >= {attempts} && stop.dataset.phase === 'failed'"
+        " && getComputedStyle(stop).backgroundColor === 'rgb(224, 49, 49)'; })()"
+    )
 
 
 def resize(page, screen: tuple[int, int]) -> None:  # type: ignore[no-untyped-def]
@@ -120,7 +120,7 @@ def test_a_stop_lost_in_a_blackout_is_in_view_in_red_and_retried_until_confirmed
     # Retried while the blackout lasts, each failure said and counted, and in red while it fails
     # (read in one go with its count: it is redrawn with each attempt, and on a loaded machine a
     # later read came after the blackout, the STOP confirmed) ...
-    until(page, RED_AND_FAILED.replace("ATTEMPTS", "2"))
+    until(page, red_and_failed(2))
     text = page.locator("#ptwl-stop").inner_text()
     assert "NOT CONFIRMED (link dropped the request (blackout))" in text
     assert "the robot may still be moving" in text
@@ -136,7 +136,7 @@ def test_a_stop_lost_in_a_blackout_is_in_view_in_red_and_retried_until_confirmed
     )
     # ... and on the desktop's, still failing, a later attempt drawn in red.
     resize(page, SCREENS[1])
-    until(page, RED_AND_FAILED.replace("ATTEMPTS", "3"))
+    until(page, red_and_failed(3))
     in_view_where_it_was(page, desktop_y)
     # After the blackout a retry gets through and the robot confirms it.
     until(

@@ -4,6 +4,7 @@ statuses, exits, details (their numbers aside: times differ) and order. Both run
 robot_sim/command_book.py; a second copy of any part of it (expiry, STOP, the cap) would show
 here as a difference."""
 
+import functools
 import math
 import re
 import time
@@ -20,6 +21,7 @@ from robot_sim.executor import CommandParams
 from robot_sim.limits import COMMAND_QUEUE_MAX
 from robot_sim.task_frames import FrameInUseError
 from server.commands import status_model
+from tests.helpers import wait_until
 
 SCENE = "free_space"
 # (what to send, as the API's JSON; whether it carries sent_at and a max_age of 0.3 s)
@@ -96,12 +98,6 @@ def through_the_server() -> tuple[list[Row], int]:
             answer.raise_for_status()
             return True
 
-        def wait_until(done: Callable[[], bool]) -> None:
-            deadline = time.monotonic() + 30.0
-            while not done():
-                assert time.monotonic() < deadline, "the server's commands never got there"
-                time.sleep(0.02)
-
         def statuses() -> list[tuple[int, str]]:
             return [(c["id"], c["status"]) for c in http.get("/api/commands", params={"limit": 1000}).json()]
 
@@ -118,7 +114,8 @@ def through_the_server() -> tuple[list[Row], int]:
         def fault() -> None:
             http.post("/api/_debug/fault").raise_for_status()
 
-        refused = Script(post, time.time, wait_until, statuses, stop, frame, fault).run()
+        server_wait = functools.partial(wait_until, timeout_s=30.0)
+        refused = Script(post, time.time, server_wait, statuses, stop, frame, fault).run()
         return rows(http.get("/api/commands", params={"limit": 1000}).json()), refused
 
 
