@@ -84,8 +84,7 @@ def test_the_age_keeps_counting_through_a_blackout_and_turns_amber_then_red(brow
     # files beside a hogged core), nothing arrived for at least 4.5 s of the 7 watched ...
     last_seq = seen[-1][2]
     quiet = seen[next(i for i, s in enumerate(seen) if s[2] == last_seq) :]
-    assert (quiet[-1][0] - quiet[0][0]) / 1000.0 >= 4.5
-    assert {seq for _, _, seq, _ in quiet} == {last_seq}
+    assert (quiet[-1][0] - quiet[0][0]) / 1000.0 >= 4.5  # (seq only grows: one seq throughout)
     # ... yet the page's age was recomputed at least 4 times a second ...
     per_s = len(quiet) / ((quiet[-1][0] - quiet[0][0]) / 1000.0)
     assert per_s >= 4.0, per_s
