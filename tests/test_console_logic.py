@@ -749,12 +749,11 @@ def test_preview_says_how_a_move_ends_and_step_sends_its_first_part(
 
 
 def test_the_history_keeps_at_most_max_views_and_its_counts_cover_everything() -> None:
-    """A script may send commands for ever: the console keeps MAX_VIEWS of them, and the
-    paper's counts still count every one (issue 26: every memory an outsider can grow is bounded)."""
-    from web.history import MAX_VIEWS
-
+    """A script may send commands for ever: the console keeps 1000 of them (as many as the
+    robot's history keeps), and the paper's counts still count every one (issue 26: every memory
+    an outsider can grow is bounded)."""
     history = CommandHistory()
-    n = MAX_VIEWS + 500
+    n = 1500
     for i in range(n):
         behavior = ("ptwl", "rwe", "dither")[i % 3]
         history.event({"id": i, "behavior": behavior, "status": "queued"})
@@ -765,7 +764,7 @@ def test_the_history_keeps_at_most_max_views_and_its_counts_cover_everything() -
             "exit": "goal_reached" if i % 3 == 0 else "completed",
         }
         history.event({**done, "peak_force": 99.0 if i == 7 else 1.0, "peak_torque": 0.5})
-    assert len(history._views) == MAX_VIEWS and len(history._by_id) == MAX_VIEWS
+    assert len(history._views) == 1000 and len(history._by_id) == 1000
     counts = history.counts()
     assert counts["ptwl_total"] == counts["ptwl"]["goal_reached"] == (n + 2) // 3
     assert (counts["rwe"], counts["dither"]) == ((n + 1) // 3, n // 3)

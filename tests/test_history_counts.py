@@ -18,6 +18,7 @@ def test_counts_are_per_scene_and_count_the_steps_of_state_machines() -> None:
     history = CommandHistory()
     history.set_scene("free_space")
     ended(history, 1795000000000001, "ptwl", "goal_reached", peak_force=3.0)
+    ended(history, 1795000000000006, "dither", "completed", peak_force=2.0)
     history.set_scene("sleeve_on_peg")
     ended(history, 1795000000000002, "ptwl", "timeout", peak_force=18.7)
     ended(history, 1795000000000003, "rwe", "completed")
@@ -33,8 +34,8 @@ def test_counts_are_per_scene_and_count_the_steps_of_state_machines() -> None:
     assert (sleeve["ptwl_total"], sleeve["rwe"], sleeve["behaviors"]) == (3, 2, 5)
     assert sleeve["peak_force"] == 21.0
     free = history.counts("free_space")
-    assert (free["ptwl_total"], free["behaviors"], free["peak_force"]) == (1, 1, 3.0)
-    assert history.counts()["behaviors"] == 6  # every scene
+    assert (free["ptwl_total"], free["dither"], free["behaviors"], free["peak_force"]) == (1, 1, 2, 3.0)
+    assert history.counts()["behaviors"] == 7  # every scene
 
 
 def test_the_breakdown_reads_as_the_papers_table_with_short_ids() -> None:

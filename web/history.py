@@ -21,6 +21,7 @@ from typing import Any
 
 from ptwl.recording.topics import command_event
 from robot_sim.exit_severity import Severity, severity
+from robot_sim.limits import COMMAND_HISTORY_MAX
 
 SEVERITY_COLORS = {  # Mantine's green, violet, orange and red (the phases are blue)
     Severity.SUCCESS: "#2f9e44",
@@ -72,7 +73,7 @@ class CommandView:
         return exit_color_hex(self.exit) if self.phase == "done" else PHASE_COLORS.get(self.phase, "#495057")
 
 
-MAX_VIEWS = 1000  # commands kept, as many as the robot's own history keeps
+MAX_VIEWS = COMMAND_HISTORY_MAX  # commands kept: as many as the robot's own history keeps
 
 
 @dataclass

@@ -1,0 +1,64 @@
+"""A command's line in the console's history: its colour by phase and exit, its label before the
+robot gave it an id, and the robot's records taken as the truth once its run is known."""
+
+import pytest
+
+from web.history import CommandHistory
+
+BLUE, VIOLET, GREEN, PURPLE, ORANGE, RED = "#1971c2", "#7048e8", "#2f9e44", "#ae3ec9", "#e8590c", "#e03131"
+
+
+@pytest.mark.parametrize(
+    ("events", "colour"),
+    [
+        ([], BLUE),  # sent: the 202 not back yet
+        (["queued"], BLUE),
+        (["queued", "running"], VIOLET),
+        (["queued", "running", "goal_reached"], GREEN),  # success
+        (["queued", "running", "aborted"], PURPLE),  # notice
+        (["queued", "running", "wrench_breach"], ORANGE),  # warning
+        (["queued", "running", "lost"], RED),  # error
+    ],
+)
+def test_a_line_is_coloured_by_its_phase_then_by_its_exits_severity(events: list[str], colour: str) -> None:
+    history = CommandHistory()
+    view = history.sent("ptwl")
+    for event in events:
+        if event == "queued":
+            history.accepted(view, 7)
+        elif event == "running":
+            history.event({"id": 7, "behavior": "ptwl", "status": "running"})
+        else:
+            history.event({"id": 7, "behavior": "ptwl", "status": "done", "exit": event})
+    assert view.color == colour
+
+
+def test_a_refused_send_is_red_and_says_refused() -> None:
+    history = CommandHistory()
+    view = history.sent("rwe")
+    history.refused(view, "422: duration must be > 0")
+    assert (view.status, view.color, view.detail) == ("refused", RED, "422: duration must be > 0")
+
+
+def test_sends_without_an_id_are_numbered_from_1_in_this_console() -> None:
+    history = CommandHistory()
+    first, second = history.sent("ptwl"), history.sent("dither")
+    assert (first.label, second.label) == ("(local 1)", "(local 2)")
+    assert first.short_label == "(local 1)"
+    history.accepted(first, 1795000000001234)
+    assert (first.label, first.short_label) == ("#1795000000001234", "#…1234")
+
+
+def test_records_of_the_run_the_console_knows_are_taken_as_the_truth() -> None:
+    """Once the robot's run is known, its records (with that run's instance, or none) are
+    applied; only a restarted run's are stale (test_console_logic holds that side)."""
+    history = CommandHistory()
+    history.robot_instance("aaaa0001")
+    mine = history.sent("ptwl")
+    history.accepted(mine, 21)
+    records = [
+        {"id": 21, "type": "ptwl", "status": "done", "exit": "timeout", "instance": "aaaa0001"},
+        {"id": 22, "type": "rwe", "status": "running"},  # no instance: the same run's
+    ]
+    assert history.reconcile(records) == [mine] and mine.status == "timeout"
+    assert [(v.id, v.status) for v in history.recent()] == [(21, "timeout"), (22, "running")]
