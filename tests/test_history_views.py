@@ -62,3 +62,15 @@ def test_records_of_the_run_the_console_knows_are_taken_as_the_truth() -> None:
     ]
     assert history.reconcile(records) == [mine] and mine.status == "timeout"
     assert [(v.id, v.status) for v in history.recent()] == [(21, "timeout"), (22, "running")]
+
+
+def test_events_waiting_for_a_202_are_bounded_at_1000_the_newest_kept() -> None:
+    """While a send's 202 is on its way, events of the same behavior are kept for it (one may be
+    its own); a script's flood in that time keeps the newest 1000, never more."""
+    history = CommandHistory()
+    mine = history.sent("ptwl")
+    for command_id in range(1, 1501):
+        assert history.event({"id": command_id, "behavior": "ptwl", "status": "queued"}) == (None, False)
+    assert len(history._early) == 1000 and min(history._early) == 501
+    history.accepted(mine, 1500)  # its event was among the newest: applied as it lands
+    assert mine.id == 1500 and mine.phase == "queued" and 1500 not in history._early

@@ -10,7 +10,8 @@ result of a later command, and the history starts again from them.
 
 Bounded: at most MAX_VIEWS commands are kept (a script can send commands for as long as it likes);
 the oldest finished ones are then folded into the counts and forgotten, so the paper's counts
-still cover the whole session.
+still cover the whole session. Events that come before the 202 of a command sent from here are
+kept until it lands, at most MAX_VIEWS of them (the newest).
 """
 
 import threading
@@ -145,6 +146,8 @@ class CommandHistory:
                 # Ours, with the 202 still on its way? Keep it until it lands; else someone else's.
                 if any(v.phase == "sent" and v.behavior == message["behavior"] for v in self._views):
                     self._early[command_id] = message
+                    while len(self._early) > MAX_VIEWS:  # a flood while ours is on its way
+                        self._early.pop(next(iter(self._early)))  # the oldest goes first
                     return None, False
                 view = CommandView(0, message["behavior"], "queued", id=command_id, scene=self.scene)
                 self._views.append(view)
@@ -191,8 +194,7 @@ class CommandHistory:
         return view
 
     def _trim(self) -> None:
-        """(under the lock) Past MAX_VIEWS, fold the oldest finished commands into the counts.
-        Early events wait only for a command still `sent`: at most as many as those."""
+        """(under the lock) Past MAX_VIEWS, fold the oldest finished commands into the counts."""
         excess = len(self._views) - MAX_VIEWS
         if excess <= 0:
             return
@@ -203,8 +205,6 @@ class CommandHistory:
                 self._by_id.pop(view.id, None)
         gone = {id(v) for v in old}
         self._views = [v for v in self._views if id(v) not in gone]
-        while len(self._early) > MAX_VIEWS:
-            self._early.pop(next(iter(self._early)))
 
     def live(self) -> list[CommandView]:
         """Commands this console shows as queued or running."""
