@@ -6,7 +6,7 @@ import math
 from robot_sim.sim import Simulation
 from robot_sim.telemetry import state_fields
 from web.panel_html import frames_html
-from web.status_bar import BarInputs, _render
+from web.status_bar import BarInputs, _fraction_done, _prediction_html, _render
 from web.telemetry_health import LinkLine
 
 
@@ -70,3 +70,23 @@ def test_the_force_monitor_never_passes_silently_on_the_bar() -> None:
     # From a recording the reason is data, never markup.
     crafted = shown(not_judging='<img src=x onerror="alert(1)">')
     assert "<img" not in crafted and "&lt;img src=x" in crafted
+
+
+def test_the_port_and_the_twins_prediction_are_said_in_mm() -> None:
+    state = {**state_fields(Simulation("free_space"), []), "seq": 7, "sent_at": 100.0, "instance": "a"}
+    state["port"] = {**state["port"], "position": [0.4123, -0.0205, 0.3]}
+    shown = str(_render(BarInputs(state, 100.1, True, LinkLine("fresh", ""), 0.0, "", ""), 0.1, "fresh"))
+    assert "port (412.3, -20.5, 300.0) mm" in shown
+    twin = str(_prediction_html((0.4123, -0.0205, 0.3), (0.0012, 0.0034), "off by 1.2 mm", True))
+    assert 'data-x="412.30" data-y="-20.50" data-z="300.00"' in twin
+    assert 'data-error-mm="1.200" data-max-mm="3.400"' in twin
+    assert "twin: port (412.3, -20.5, 300.0) mm" in twin
+
+
+def test_the_task_bar_fills_with_progress_and_for_an_error_with_target_over_error() -> None:
+    assert _fraction_done(None, 30.0, False) == 0.0  # nothing known yet: empty, not full
+    assert _fraction_done(12.0, 30.0, False) == 0.4
+    assert _fraction_done(45.0, 30.0, False) == 1.0
+    assert _fraction_done(10.0, 5.0, True) == 0.5  # an error of 10 to bring under 5
+    assert _fraction_done(0.0, 0.0, True) == 1.0  # at its target of 0: full (and no 0 / 0)
+    assert _fraction_done(None, 5.0, True) == 0.0

@@ -7,6 +7,7 @@ import logging
 import re
 import threading
 import time
+from collections.abc import Callable
 
 import pytest
 import viser
@@ -15,6 +16,7 @@ from robot_sim.sim import Simulation
 from robot_sim.telemetry import state_fields
 from tests.helpers import wait_until
 from web.status_bar import BarInputs, Level, StatusBar
+from web.stop_sender import StopState
 from web.telemetry_health import LinkLine
 
 WAIT_S = 30.0  # a bound on the ticker's next few ticks (0.08 s apart), never reached when it works
@@ -63,3 +65,45 @@ def test_a_failing_tick_is_said_on_the_bar_and_the_next_good_one_shows_the_robot
         bar.close()
         server.stop()
     assert not bar.running
+
+
+class Ticks:
+    """The bar's stop event, driven by the test: each `wait` notes its timeout and what the STOP
+    row shows, and says closed after `n` waits."""
+
+    def __init__(self, n: int, seen: Callable[[], str]) -> None:
+        self.n, self.seen = n, seen
+        self.waits: list[float] = []
+        self.phases: list[str] = []
+
+    def wait(self, timeout_s: float) -> bool:
+        self.waits.append(timeout_s)
+        self.phases.append(re.search(r'data-phase="(\w+)"', self.seen())[1])  # type: ignore[index]
+        return len(self.waits) > self.n
+
+    def set(self) -> None:
+        pass
+
+
+def test_the_bar_ticks_every_80_ms_and_draws_each_new_stop_state() -> None:
+    """12.5 updates a second whatever arrives; the STOP row shows each state the sender goes
+    through (a press, the robot's answer) at the next tick."""
+    state = {**state_fields(Simulation("free_space"), []), "seq": 7, "instance": "a"}
+    stops = iter([StopState(), StopState(), StopState("pending", "STOP sent", 1)])
+
+    def inputs() -> BarInputs:
+        stop = next(stops, StopState("confirmed", "stopped", 1))
+        now = time.time()
+        link = LinkLine("fresh", "up")
+        return BarInputs({**state, "sent_at": now}, now, True, link, 0.0, "", "", stop=stop)
+
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        bar = StatusBar(server.gui, inputs, lambda _: None)  # drawn first from the idle STOP
+        ticks = Ticks(3, lambda: bar.stop_html.content)
+        bar._closed = ticks  # type: ignore[assignment]
+        bar._run()  # three ticks on this thread, then closed
+    finally:
+        server.stop()
+    assert ticks.waits == [0.08] * 4
+    assert ticks.phases == ["idle", "idle", "pending", "confirmed"]
