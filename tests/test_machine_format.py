@@ -14,7 +14,7 @@ from pydantic import ValidationError
 from robot_sim.behaviors import BehaviorReport, ExitCondition, Pose
 from robot_sim.errors import ConfigError
 from robot_sim.machines.command import DecisionRequest, StateMachineParams
-from robot_sim.machines.engine import policy_class
+from robot_sim.machines.engine import _refusal, policy_class
 from robot_sim.machines.library import builtin_machines, read_machine
 from robot_sim.machines.spec import AUTONOMY_LEVELS, MAX_MACHINE_STEPS, MAX_VISITS, MachineSpec, waits
 from robot_sim.policies import POLICIES, Finish, Step, run_onboard
@@ -492,3 +492,36 @@ def test_overrides_that_make_a_command_invalid_are_refused_when_sent() -> None:
         match=r"with these overrides, press: states\.press\.command\.translation: magnitude must be <= 1 m",
     ):
         StateMachineParams(machine=spec, overrides={"a_far": 1.5})
+
+
+def test_an_ending_says_its_transitions_why_unless_visits_ran_out() -> None:
+    """A transition's `why` is what ending there means; when the state it leads to has used its
+    visits and the machine fails instead, the record says so, not the why of the way it meant."""
+    machine = base()
+    machine["states"]["relieve"]["transitions"] = [{"to": "completed", "why": "pressed and relieved"}]
+    machine["states"]["press"]["transitions"][1]["why"] = "not deep enough: press again"
+    policy = policy_class(MachineSpec.model_validate(machine))()
+    policy.first(HOME)
+    policy.next(report(ExitCondition.WRENCH_BREACH, down(0.003)))
+    done = policy.next(report(ExitCondition.COMPLETED, down(0.003)))
+    assert done == Finish(True, "relieve ended completed: pressed and relieved")
+    retried = policy_class(MachineSpec.model_validate(machine))()
+    retried.first(HOME)
+    for _ in range(2):
+        retried.next(report(ExitCondition.TIMEOUT, HOME))
+    ended = retried.next(report(ExitCondition.TIMEOUT, HOME))
+    assert isinstance(ended, Finish) and ended.why.endswith("; press used its 3 visits: failed")
+
+
+def test_a_machine_is_summed_up_by_its_summary_or_by_its_name() -> None:
+    machine = base()
+    assert policy_class(MachineSpec.model_validate(machine)).summary == "the machine 'press'"
+    machine["summary"] = "press the plate, then let go"
+    assert policy_class(MachineSpec.model_validate(machine)).summary == "press the plate, then let go"
+
+
+def test_a_variable_not_set_is_said_by_name() -> None:
+    """Validation refuses a read before every way there sets it; should one slip through, the
+    machine fails saying which variable (not a bare KeyError)."""
+    assert _refusal(KeyError("depth"), "ptwl") == "variable 'depth' not set yet"
+    assert _refusal(OverflowError("too big"), "ptwl") == "too big"
