@@ -18,8 +18,11 @@ from server.client import RobotClient
 from tests.test_console_logic import viser_client, wait_for_state
 from web.app import ConsoleApp
 from web.link_plan import (
+    DirectionNow,
+    _uplink_wait,
     direction_now,
     duration_text,
+    has_schedule,
     link_replaces_states,
     plan_send,
     run_time_s,
@@ -109,6 +112,27 @@ def test_the_bar_line_says_the_next_change_the_delay_trend_and_the_rate() -> Non
     assert lost.startswith("LOSS OF SIGNAL for 12 s · next contact at ") and "(in 1 min 30 s)" in lost
     assert "uplink closed: 2 held for its next contact" in lost
     assert [duration_text(s) for s in (42.4, 370.0, 7260.0)] == ["42 s", "6 min 10 s", "2 h 01 min"]
+    assert [duration_text(s) for s in (59.4, 60.0, 3599.0, 3600.0)] == [
+        "59 s",
+        "1 min 00 s",
+        "59 min 59 s",
+        "1 h 00 min",
+    ]
+
+
+def test_an_unlimited_uplink_sends_a_command_at_once_up_to_its_close() -> None:
+    """A command takes no time on an uplink without a rate: it goes if the link is open now,
+    however soon it closes; on a 1 kB/s uplink 500 bytes take 0.5 s and wait for the next contact."""
+    unlimited = DirectionNow(True, NOW + 0.2, 30.0, None, 1.0, 0.0, None, 0)
+    assert _uplink_wait(unlimited, NOW, 500) is None
+    narrow = DirectionNow(True, NOW + 0.2, 30.0, None, 1.0, 0.0, 1000.0, 0)
+    assert _uplink_wait(narrow, NOW, 500) == NOW + 0.2 + 30.0
+    assert _uplink_wait(narrow, NOW, 100) is None  # 0.1 s: off the wire before it closes
+
+
+def test_a_plain_link_or_none_has_no_schedule_line() -> None:
+    assert not has_schedule(None) and not has_schedule({"uplink": 1.0, "downlink": 1.0})
+    assert has_schedule({"blackouts": [{"start": 0.0, "duration": 5.0}]})
 
 
 def test_run_times_are_each_behaviors_own() -> None:
