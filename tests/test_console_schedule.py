@@ -326,6 +326,7 @@ def test_a_gap_on_a_link_that_replaces_states_is_not_called_a_loss() -> None:
     assert link_replaces_states({"schedule": {"contacts": [{"start": 0.0, "end": 1.0}], "mode": "store"}})
     assert not link_replaces_states({"schedule": {"contacts": [{"start": 0.0, "end": 1.0}], "mode": "drop"}})
     assert not link_replaces_states({"blackouts": [{"start": 1.0, "duration": 1.0, "mode": "hold"}]})
+    assert not link_replaces_states(None)  # no profile read yet: a gap is states lost
 
 
 def test_silence_through_a_loss_of_signal_is_said_as_such_not_as_losses() -> None:
