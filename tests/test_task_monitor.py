@@ -209,3 +209,30 @@ def test_below_the_judging_floor_a_jam_is_still_an_anomaly() -> None:
     assert slippery.judging_floor_n() == math.inf
     assert not judge(slippery, 10.0, 0.5, 0.01, 5) and slippery.not_judging == "normal force 10.00 N < inf N"
     assert judge(slippery, 10.0, 6.0, 0.01, 3)  # a 6 N jam at 10 N: still caught
+
+
+def test_leaving_contact_restarts_the_count_toward_persist_and_the_detail_says_the_forces() -> None:
+    """Off the band for 20 ms, lifted off, then off again: an anomaly only after another full
+    30 ms (`persist`), and its detail names the sample's forces."""
+    monitor = FrictionMonitor(MonitorSpec(), control_dt_s=0.001)
+    assert monitor.ticks_per_window == 10  # one sample per 10 ms at 1 kHz
+    for normal_n in np.linspace(4.0, 16.0, 60):  # mu 0.3 learned
+        judge(monitor, normal_n, 0.3 * normal_n, 0.01, 1)
+    assert not judge(monitor, 10.0, 6.0, 0.01, 2)  # 6 N against 3 +- 1 N: off, 20 ms
+    assert monitor.outside_s == pytest.approx(0.02)
+    assert not judge(monitor, 0.5, 0.0, 0.01, 1) and monitor.outside_s == 0.0  # lifted off
+    assert not judge(monitor, 10.0, 6.0, 0.01, 2)
+    monitor.last = Sample(10.0, 6.0, 0.01)  # the window's sample, as update() keeps it
+    assert monitor._judge(monitor.last)  # the third window in a row since contact again
+    assert monitor.detail().startswith("force task monitor: tangential force 6.00 N at normal 10.00 N, ")
+    assert monitor.detail().endswith(" for 30 ms")
+
+
+def test_a_constant_force_at_the_bands_floor_judges_from_contact_on() -> None:
+    """Learned mu 0 and c exactly the band's floor (1 N): the constant force alone fills the
+    floor, so it judges from the contact force up, not never."""
+    monitor = FrictionMonitor(MonitorSpec(), control_dt_s=0.001)
+    monitor.rls.theta[:] = [0.0, 1.0]
+    assert monitor.judging_floor_n() == 1.0
+    monitor.rls.theta[:] = [0.0, 0.99]
+    assert monitor.judging_floor_n() == math.inf
