@@ -46,6 +46,27 @@ def test_a_prediction_is_kept_every_record_s_and_a_scene_reload_forgets_them() -
     assert judge.summary() is None and judge.judged_wall() is None and judge.due(0.0)
 
 
+def test_the_next_prediction_is_due_from_the_latest_one_kept() -> None:
+    judge = PredictionJudge()
+    assert judge.next_due_s() == -np.inf
+    for sim_time in (0.0, 0.01, 0.02):
+        judge.record(sim_time, np.zeros(3))
+    assert judge.next_due_s() == pytest.approx(0.03)
+    assert not judge.due(0.025) and judge.due(0.03)
+
+
+def test_at_most_6000_predictions_are_kept_the_oldest_thousand_go_first() -> None:
+    judge = PredictionJudge()
+    for i in range(6000):
+        judge.record(i * RECORD_S, np.array([i * 1e-3, 0.0, 0.0]))
+    assert judge.judge(state(0.0, 0.0), 1.0) == 0.0  # the first still judges at 6000
+    judge.record(6000 * RECORD_S, np.array([6.0, 0.0, 0.0]))
+    assert len(judge._times) == 5001
+    assert judge._times[0] == pytest.approx(1000 * RECORD_S)  # the first 1000 gone
+    assert judge.judge(state(998 * RECORD_S, 0.998), 1.0) is None  # nothing kept within MATCH_S
+    assert judge.judge(state(1000 * RECORD_S, 1.0), 1.0) == pytest.approx(0.0)
+
+
 def test_a_scene_reload_makes_the_twin_restart_from_it() -> None:
     inbox = TwinInbox()
     assert not inbox.state_arrived(state(5.0, 0.0))
