@@ -8,18 +8,21 @@ from robot_sim.params import PtwlParams
 from robot_sim.sim import Simulation
 from robot_sim.telemetry import state_fields
 from web.twin import GroundTwin, Prediction, Sent
-from web.twin_trust import JUDGED_WITHIN_S, LAG_LIMIT_S, TwinTrust, ghost_label, judge_twin, twin_readout
+from web.twin_trust import TwinTrust, ghost_label, judge_twin, twin_readout
 
 
 def test_the_ghost_is_sure_only_when_fresh_judged_and_no_stop_is_pending() -> None:
+    """In the rule's own numbers: behind by over 0.2 s, or nothing judged for over 1 s."""
     now = 1000.0
     assert judge_twin(now, now - 0.02, now - 0.05, None).sure
-    lagging = judge_twin(now, now - LAG_LIMIT_S - 0.05, now - 0.05, None)
+    lagging = judge_twin(now, now - 0.25, now - 0.05, None)
     assert not lagging.sure and lagging.reason == "0.2 s behind (the machine is busy)"
-    assert judge_twin(now, now - LAG_LIMIT_S + 0.01, now - 0.05, None).sure
-    unjudged = judge_twin(now, now - 0.02, now - JUDGED_WITHIN_S - 0.5, None)
+    assert judge_twin(now, now - 0.19, now - 0.05, None).sure
+    unjudged = judge_twin(now, now - 0.02, now - 1.5, None)
     assert not unjudged.sure and unjudged.reason == "not judged for 1.5 s"
-    assert judge_twin(now, now - 0.02, now - JUDGED_WITHIN_S + 0.01, None).sure
+    assert judge_twin(now, now - 0.02, now - 0.99, None).sure
+    assert judge_twin(now, now - 0.02, now - 1.0, None).sure  # a second ago exactly: still within
+    assert not judge_twin(now, now - 0.02, now - 1.01, None).sure
     assert judge_twin(now, now - 0.02, None, None).reason == "not judged yet"
     stopping = judge_twin(now, now - 0.02, now - 0.05, now - 2.0)
     assert not stopping.sure and stopping.reason == "STOP sent 2.0 s ago, not confirmed yet"
