@@ -136,6 +136,9 @@ def test_take_control_is_offered_only_to_a_browser_without_control() -> None:
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     try:
         line = ControlLine(server.gui, order=1.0)
+        # Before the seat says anything: watching, with the button under the line.
+        assert not line.mine and 'data-mine="0"' in line._line.content and line.take_control.visible
+        assert line.take_control.order > line._line.order
         line.show(mine=False, holder="operator 2")
         assert line.take_control.visible and not line.mine
         line.show(mine=True, holder="operator 1")
