@@ -313,6 +313,7 @@ def test_an_ion_contact_plan_gives_the_same_windows_as_its_toml(tmp_path: Path) 
         ("# c\na contact +0 +600 1 2\n", r"plan.ion:2: `a contact` needs \+START \+END FROM TO VALUE"),
         ("a contact +0 +600 1 2 fast\n", r"plan.ion:1: rate 'fast' is not a number"),
         ("a contact +0 +600 3 4 100\n", r"no contact between nodes 1 and 2"),
+        ("a contact +0 +600 1 x 100\n", r"plan.ion:1: node numbers must be integers, got \['1', 'x'\]"),
         ("a contact +600 +0 1 2 100\n", r"contacts.0: end \(0 s\) must be after start \(600 s\)"),
     ],
 )
@@ -320,6 +321,18 @@ def test_a_bad_contact_plan_is_refused_naming_its_line(tmp_path: Path, text: str
     (tmp_path / "plan.ion").write_text(text)
     with pytest.raises(PlanFileError, match=fragment):
         read_schedule(tmp_path / "plan.ion")
+
+
+def test_a_plan_file_is_read_up_to_4_mib(tmp_path: Path) -> None:
+    """A file is read whole: one larger than 4 MiB is refused before it is read."""
+    contact = "a contact +0 +600 1 2 100\na contact +0 +600 2 1 100\n"
+    at_bound = tmp_path / "plan.ion"
+    at_bound.write_text(contact + "#" * (4 * 2**20 - len(contact) - 1) + "\n")
+    assert at_bound.stat().st_size == 4 * 2**20 and read_schedule(at_bound).contacts
+    over = tmp_path / "big.ion"
+    over.write_text(contact + "#" * (4 * 2**20 - len(contact)) + "\n")
+    with pytest.raises(PlanFileError, match=r"big.ion: larger than 4194304 bytes"):
+        read_schedule(over)
 
 
 @pytest.mark.parametrize(
