@@ -87,6 +87,29 @@ def test_a_send_whose_done_event_came_without_its_running_one_is_not_replayed() 
     assert [s.sent_wall for s in inbox.take().sent] == [101.0]
 
 
+def test_only_a_started_command_leaves_the_prediction_and_only_its_own_end_clears_running() -> None:
+    inbox = TwinInbox()
+    inbox.sent(Sent(RweParams(duration=0.5), 100.0, lambda: True))
+    inbox.command_event({"id": 7, "status": "queued", "params": {"sent_at": 100.0}})  # not started
+    assert [s.sent_wall for s in inbox.take().sent] == [100.0]
+    inbox.command_event({"id": 7, "status": "running", "params": {"sent_at": 100.0}})
+    heard = inbox.take()
+    assert heard.sent == [] and heard.running is not None and heard.running["id"] == 7
+    inbox.command_event({"id": 8, "status": "done", "params": {}})  # another command's end
+    assert inbox.take().running["id"] == 7  # type: ignore[index]
+    inbox.command_event({"id": 7, "status": "done", "params": {"sent_at": 100.0}})
+    assert inbox.take().running is None
+
+
+def test_the_started_stamps_kept_are_the_newest_256() -> None:
+    inbox = TwinInbox()
+    for i in range(300):
+        inbox.command_event({"id": i, "status": "done", "params": {"sent_at": float(i)}})
+    inbox.sent(Sent(RweParams(duration=0.5), 43.0, lambda: True))  # its start long forgotten
+    inbox.sent(Sent(RweParams(duration=0.5), 44.0, lambda: True))  # the oldest remembered
+    assert [s.sent_wall for s in inbox.take().sent] == [43.0]
+
+
 def test_the_commanded_marker_is_solid_or_an_outline_never_both() -> None:
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     try:
