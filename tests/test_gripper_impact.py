@@ -113,6 +113,8 @@ def test_a_report_sets_a_recorded_retrieval_beside_table_1(pneumatic: list[TaskR
         messages.append(Recorded(topics.TASK.name, "", t0 + 999, {"success": run.success}))
     text = report_text(Recording(Path("two.mcap"), messages))
     assert "tool_retrieval beside the paper's Table 1" in text
+    header = next(line for line in text.splitlines() if "trial 1 (" in line)
+    assert "trial 1 (tool_retrieval)" in header and "trial 2 (tool_retrieval)" in header  # numbered from 1
     ours = dict(paper_rows([r.as_dict() for r in pneumatic], [r.success for r in pneumatic]))
     [force_row] = [line for line in text.splitlines() if line.startswith("Max force [N]") and "51.8" in line]
     cells = [cell.strip() for cell in force_row.split("|")]
