@@ -65,6 +65,17 @@ def test_policy_names_and_origins() -> None:
         assert policy.origin_problem(foreign) is not None, foreign
 
 
+def test_an_origin_without_a_port_has_its_schemes_default_port() -> None:
+    """https://localhost is port 443 and http://localhost port 80: a server on one is not the
+    origin of a page served on the other."""
+    on_443, on_80 = AccessPolicy("127.0.0.1", 443), AccessPolicy("127.0.0.1", 80)
+    assert on_443.origin_problem("https://localhost") is None
+    assert on_443.origin_problem("http://localhost") is not None
+    assert on_80.origin_problem("http://localhost") is None
+    assert on_80.origin_problem("https://localhost") is not None
+    assert on_80.origin_problem("http://localhost:99999") is not None  # no port at all
+
+
 @pytest.mark.parametrize("through", ["robot", "link"])
 def test_telemetry_socket_refuses_a_foreign_origin(stack: tuple[ServiceProcess, ...], through: str) -> None:
     base = stack[0].url if through == "robot" else stack[1].url
