@@ -1,12 +1,14 @@
 """Access: loopback by default; a non-loopback bind needs a token; the token guards the API."""
 
 import asyncio
+import socket
 from collections.abc import Iterator
 
 import httpx
 import pytest
 import websockets
 
+from ptwl.guard.access import AccessPolicy, check_token_setting
 from ptwl.launcher import ServiceProcess, running_server
 from server.config import ConfigError, ServerConfig, is_loopback
 from tests.command_line import run_ptwl
@@ -24,6 +26,21 @@ def test_default_bind_is_loopback() -> None:
     assert ServerConfig().host == "127.0.0.1"
     assert is_loopback("127.0.0.1") and is_loopback("::1") and is_loopback("localhost")
     assert not is_loopback("0.0.0.0") and not is_loopback("192.0.2.1")
+
+
+def test_the_token_rule_at_its_edges_and_a_name_that_does_not_resolve() -> None:
+    check_token_setting("x" * 16, "0.0.0.0")  # 16 characters: enough
+    with pytest.raises(ConfigError, match="at least 16 characters"):
+        check_token_setting("x" * 15, "0.0.0.0")
+    assert not is_loopback("no-such-host.invalid")  # cannot be resolved: not known to be loopback
+    with pytest.raises(ConfigError, match="needs an access token"):
+        check_token_setting(None, "no-such-host.invalid")
+
+
+def test_a_wildcard_bind_answers_to_the_machines_name_and_a_loopback_one_only_to_loopback() -> None:
+    assert AccessPolicy("127.0.0.1", 8000).names == {"127.0.0.1", "localhost", "::1"}
+    wildcard = AccessPolicy("0.0.0.0", 8000, TOKEN)
+    assert wildcard.names == {"0.0.0.0", "127.0.0.1", "localhost", "::1", socket.gethostname().lower()}
 
 
 def test_non_loopback_bind_without_token_refuses_to_start() -> None:
@@ -93,7 +110,6 @@ def test_a_weak_token_refuses_to_start(command: str, token: str) -> None:
 def test_a_token_in_the_query_string_opens_only_a_websocket() -> None:
     """Browsers cannot set headers on a WebSocket, so there `?token=` stands in for the bearer
     header; on plain HTTP it is refused (a URL with a secret ends up in logs and histories)."""
-    from ptwl.guard.access import AccessPolicy
     from ptwl.guard.asgi import denial
 
     policy = AccessPolicy("0.0.0.0", 8000, "s3cret-token-of-enough-length", (), ())
