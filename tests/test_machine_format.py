@@ -210,6 +210,15 @@ def test_a_guard_that_compares_the_wrong_kind_is_refused() -> None:
     assert "detail compares with op `starts_with` and a text" in refusal(machine)
 
 
+def test_a_details_text_is_at_most_100_characters() -> None:
+    machine = base()
+    guard = {"measure": "detail", "op": "starts_with", "value": "x" * 100}
+    machine["states"]["relieve"]["transitions"] = [{"when": [guard], "to": "completed"}, {"to": "failed"}]
+    MachineSpec.model_validate(machine)
+    guard["value"] = "x" * 101
+    assert "a detail's text is at most 100 characters" in refusal(machine)
+
+
 def test_a_setting_outside_its_own_range_and_bad_overrides_are_refused() -> None:
     machine = base()
     machine["settings"]["depth"] = {"value": 0.1, "min": 0.001, "max": 0.05}
