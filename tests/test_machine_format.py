@@ -210,6 +210,15 @@ def test_a_guard_that_compares_the_wrong_kind_is_refused() -> None:
     assert "detail compares with op `starts_with` and a text" in refusal(machine)
 
 
+def test_a_guard_reading_a_pose_as_a_number_is_refused() -> None:
+    machine = base()
+    machine["states"]["relieve"]["transitions"] = [
+        {"when": [{"measure": "var", "var": "pressed_at", "op": ">", "value": 1.0}], "to": "completed"},
+        {"to": "failed"},
+    ]
+    assert "transitions[0].when[0].var: no number variable or setting 'pressed_at'" in refusal(machine)
+
+
 def test_a_details_text_is_at_most_100_characters() -> None:
     machine = base()
     guard = {"measure": "detail", "op": "starts_with", "value": "x" * 100}
