@@ -128,8 +128,12 @@ def test_three_second_round_trip_shows_intent_at_once_and_the_robot_later(browse
             moved_after = time.monotonic() - t0
             break
         time.sleep(0.02)
-    age = float(page.locator("#ptwl-telemetry").get_attribute("data-age") or "nan")
-    time.sleep(0.6)
+    # The bar's age over the next 1.5 s of steady telemetry (one read at one instant under load
+    # caught the console 1.2 s late in drawing: 2.22 s shown in a hogged CI run).
+    ages = []
+    while time.monotonic() - t0 < (moved_after or 0.0) + 1.5:
+        ages.append(float(page.locator("#ptwl-telemetry").get_attribute("data-age") or "nan"))
+        time.sleep(0.05)
     ARTIFACTS.mkdir(exist_ok=True)
     page.screenshot(path=str(ARTIFACTS / "console-mid-task.png"))
     wait_status(page, "goal_reached", after=before)
@@ -145,8 +149,10 @@ def test_three_second_round_trip_shows_intent_at_once_and_the_robot_later(browse
     assert moved_after is not None and moved_after >= UPLINK_S
     # "robot state is ~1 s old": never less than the downlink's 1 s, and more only by the console's
     # own lag in drawing (0.0-0.1 s on an idle machine; 0.30 s, and once 0.60 s, measured with a
-    # core hogged beside another browser file). An age that counted the round trip (2 s) fails.
-    assert DOWNLINK_S - 0.05 <= age <= DOWNLINK_S + 0.75
+    # core hogged beside another browser file; once 1.22 s at one instant of a hogged CI run): the
+    # freshest age shown over 1.5 s within 0.75 s of it. An age that counted the round trip (2 s)
+    # is never under 2 s, and fails.
+    assert DOWNLINK_S - 0.05 <= min(ages) <= DOWNLINK_S + 0.75, ages
 
 
 def test_console_says_when_the_robot_restarts_and_reconnects(browser) -> None:  # type: ignore[no-untyped-def]
