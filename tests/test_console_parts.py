@@ -8,6 +8,7 @@ import pytest
 import viser
 
 from robot_sim.params import RweParams
+from tests.worker_rounds import Rounds
 from web.commanded_marker import CommandedMarker
 from web.twin_inbox import TwinInbox
 from web.twin_judge import ERROR_WINDOW_S, MATCH_S, RECORD_S, PredictionJudge
@@ -269,18 +270,10 @@ def test_a_playhead_polled_across_a_seek_is_not_shown() -> None:
             puts.append(change)
             return {**status, **change}
 
-    class OnePoll:
-        def __init__(self) -> None:
-            self.polls = 0
-
-        def wait(self, timeout: float) -> bool:
-            self.polls += 1
-            return self.polls > 1  # one round of the loop, then closed
-
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     try:
         playback = Playback(server.gui, Api(), status, on_jump=lambda: None)  # type: ignore[arg-type]
-        playback._closed = OnePoll()
+        playback._closed = Rounds(1)  # one round of the loop, then closed
         playback._run()
         assert playback.status["position_s"] == 5.0  # the seek's answer, not the older poll's
         playback._seek()  # a second thread for the same move (a burst of moves): one seek only
@@ -311,13 +304,6 @@ def test_a_playhead_polled_while_a_seek_is_on_its_way_is_not_shown() -> None:
             put_answered.wait(5.0)
             return {**status, **change}
 
-    class OnePoll:
-        polls = 0
-
-        def wait(self, timeout: float) -> bool:
-            self.polls += 1
-            return self.polls > 1
-
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     try:
         playback: Any = Playback(server.gui, Api(), status, on_jump=lambda: None)  # type: ignore[arg-type]
@@ -325,7 +311,7 @@ def test_a_playhead_polled_while_a_seek_is_on_its_way_is_not_shown() -> None:
         seek = threading.Thread(target=playback._seek)
         seek.start()
         assert put_sent.wait(5.0)
-        playback._closed = OnePoll()
+        playback._closed = Rounds(1)  # one round of the loop, then closed
         playback._run()  # asks now, mid-PUT; shows only once the seek is done
         seek.join(5.0)
         assert playback.status["position_s"] == 5.0

@@ -7,7 +7,6 @@ import logging
 import re
 import threading
 import time
-from collections.abc import Callable
 
 import pytest
 import viser
@@ -15,6 +14,7 @@ import viser
 from robot_sim.sim import Simulation
 from robot_sim.telemetry import state_fields
 from tests.helpers import wait_until
+from tests.worker_rounds import Rounds
 from web.status_bar import BarInputs, Level, StatusBar
 from web.stop_sender import StopState
 from web.telemetry_health import LinkLine
@@ -67,24 +67,6 @@ def test_a_failing_tick_is_said_on_the_bar_and_the_next_good_one_shows_the_robot
     assert not bar.running
 
 
-class Ticks:
-    """The bar's stop event, driven by the test: each `wait` notes its timeout and what the STOP
-    row shows, and says closed after `n` waits."""
-
-    def __init__(self, n: int, seen: Callable[[], str]) -> None:
-        self.n, self.seen = n, seen
-        self.waits: list[float] = []
-        self.phases: list[str] = []
-
-    def wait(self, timeout_s: float) -> bool:
-        self.waits.append(timeout_s)
-        self.phases.append(re.search(r'data-phase="(\w+)"', self.seen())[1])  # type: ignore[index]
-        return len(self.waits) > self.n
-
-    def set(self) -> None:
-        pass
-
-
 def test_the_bar_ticks_every_80_ms_and_draws_each_new_stop_state() -> None:
     """12.5 updates a second whatever arrives; the STOP row shows each state the sender goes
     through (a press, the robot's answer) at the next tick."""
@@ -100,10 +82,15 @@ def test_the_bar_ticks_every_80_ms_and_draws_each_new_stop_state() -> None:
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
     try:
         bar = StatusBar(server.gui, inputs, lambda _: None)  # drawn first from the idle STOP
-        ticks = Ticks(3, lambda: bar.stop_html.content)
+        phases: list[str] = []  # what the STOP row shows at each wait
+
+        def note_phase() -> None:
+            phases.append(re.search(r'data-phase="(\w+)"', bar.stop_html.content)[1])  # type: ignore[index]
+
+        ticks = Rounds(3, note_phase)
         bar._closed = ticks  # type: ignore[assignment]
         bar._run()  # three ticks on this thread, then closed
     finally:
         server.stop()
     assert ticks.waits == [0.08] * 4
-    assert ticks.phases == ["idle", "idle", "pending", "confirmed"]
+    assert phases == ["idle", "idle", "pending", "confirmed"]
