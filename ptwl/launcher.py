@@ -103,8 +103,8 @@ def running_proxy(
 
 @contextmanager
 def running_console(robot_url: str, *args: str, startup_timeout: float = 60.0) -> Iterator[ServiceProcess]:
-    """Start `ptwl console --robot URL` on a free port, wait until it serves its page."""
-    cmd = ("console", "--robot", robot_url, "--port", str(free_port()), *args)
+    """Start `ptwl console --robot URL` on a port the kernel picks, wait until it serves its page."""
+    cmd = ("console", "--robot", robot_url, "--port", "0", *args)
     with running(*cmd, health="/", startup_timeout=startup_timeout) as p:
         yield p
 

@@ -110,10 +110,15 @@ async def _pipe(reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> N
 
 
 class FrontDoor:
-    """Listen on (host, port); pass allowed connections to viser at 127.0.0.1:`inner_port`."""
+    """Listen on (host, port); pass allowed connections to viser at 127.0.0.1:`inner_port`.
 
-    def __init__(self, host: str, port: int, inner_port: int, allow_origins: tuple[str, ...] = ()) -> None:
-        self._host, self._port, self._inner_port = host, port, inner_port
+    Bound before viser exists (`inner_port` is set after): viser takes an ephemeral port, and
+    bound first it could take the very port just probed free for the front door (a CI run's
+    console failed so: viser on 35815, then the front door's bind of 35815 refused)."""
+
+    def __init__(self, host: str, port: int, allow_origins: tuple[str, ...] = ()) -> None:
+        self._host, self._port = host, port
+        self.inner_port: int | None = None  # viser's port; until set, "console not ready" (503)
         self._allow_origins = allow_origins
         self.secret = secrets.token_urlsafe(24)
         self.policy: AccessPolicy | None = None
@@ -162,7 +167,9 @@ class FrontDoor:
             await _close(writer)
             return
         try:
-            inner_reader, inner_writer = await asyncio.open_connection("127.0.0.1", self._inner_port)
+            if self.inner_port is None:
+                raise ConnectionRefusedError("viser not started yet")
+            inner_reader, inner_writer = await asyncio.open_connection("127.0.0.1", self.inner_port)
         except OSError:
             writer.write(_refusal(503, "console not ready"))
             await _close(writer)

@@ -11,11 +11,17 @@ from web.robot_view import INITIAL_CAMERA
 class ConsoleSite:
     def __init__(self, host: str, port: int, allow_origins: tuple[str, ...]) -> None:
         # viser checks no Origin: it listens on an ephemeral loopback port behind the front door,
-        # which checks Host, Origin and the token (web/front_door.py).
-        self.viser = viser.ViserServer(host="127.0.0.1", port=0, label="ptwl console", verbose=False)
-        self.front_door = FrontDoor(host, port, self.viser.get_port(), allow_origins)
-        admit_only_through(self.front_door, self.viser)
+        # which checks Host, Origin and the token (web/front_door.py). The front door binds first,
+        # so that viser's ephemeral port cannot be the one asked for.
+        self.front_door = FrontDoor(host, port, allow_origins)
         self.front_door.start()
+        try:
+            self.viser = viser.ViserServer(host="127.0.0.1", port=0, label="ptwl console", verbose=False)
+        except BaseException:
+            self.front_door.close()
+            raise
+        admit_only_through(self.front_door, self.viser)
+        self.front_door.inner_port = self.viser.get_port()
         self.viser.initial_camera.position, self.viser.initial_camera.look_at = INITIAL_CAMERA
         self.viser.gui.configure_theme(control_width="large", dark_mode=False)
         self.notifier = Notifier(self.viser)
