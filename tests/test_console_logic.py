@@ -606,6 +606,32 @@ def test_commands_carry_max_age_round_trip_plus_margin_and_an_expiry_is_said(
     assert title == f"RWE #{expired.id}: expired" and "over its max_age 1e-06 s" in body and color == "blue"
 
 
+def test_an_end_that_beat_its_202_down_the_link_is_announced_when_the_202_lands(
+    console: ConsoleApp, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A short command's end event can reach the console before the robot's 202 does: held until
+    the 202 says whose it is, then shown and announced like any end (not applied silently)."""
+    wait_for_state(console)
+    said: list[tuple[str, str, str]] = []
+    monkeypatch.setattr(
+        console.site.notifier, "notify", lambda title, body, color: said.append((title, body, color))
+    )
+    instance = console.log.history._instance
+
+    def command_whose_end_came_first(behavior: str, **_: Any) -> Any:
+        end = {"id": 77, "behavior": behavior, "status": "done", "exit": "completed", "instance": instance}
+        console.log.on_command({**end, "peak_force": 2.5, "peak_torque": 0.125})
+        assert not any(title.startswith("RWE") for title, _, _ in said)  # whose, not known yet
+        return type("Accepted", (), {"id": 77, "warnings": []})()
+
+    monkeypatch.setattr(console.link.client, "command", command_whose_end_came_first)
+    with viser_client(console) as desk:
+        console.seat.take(desk.client_id)
+        console.commanding.send(desk, "rwe", desk.panel.rwe.params())
+    assert ("RWE #77: completed", "peak 2.5 N, 0.12 N m", "green") in said
+    assert console.log.history.latest() is not None and console.log.history.latest().status == "completed"  # type: ignore[union-attr]
+
+
 def test_the_monitor_box_asks_for_the_force_task_monitor(console: ConsoleApp) -> None:
     with viser_client(console) as desk:
         panel = desk.panel

@@ -118,6 +118,8 @@ def test_the_bar_line_says_the_next_change_the_delay_trend_and_the_rate() -> Non
         "59 min 59 s",
         "1 h 00 min",
     ]
+    # Rounded to the second before the unit is chosen: no "60 s", no "59 min 60 s".
+    assert [duration_text(s) for s in (59.7, 3599.6, -3.0)] == ["1 min 00 s", "1 h 00 min", "0 s"]
 
 
 def test_an_unlimited_uplink_sends_a_command_at_once_up_to_its_close() -> None:

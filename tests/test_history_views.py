@@ -65,12 +65,50 @@ def test_records_of_the_run_the_console_knows_are_taken_as_the_truth() -> None:
 
 
 def test_events_waiting_for_a_202_are_bounded_at_1000_the_newest_kept() -> None:
-    """While a send's 202 is on its way, events of the same behavior are kept for it (one may be
+    """While a send's 202 is on its way, events of the same behavior are held for it (one may be
     its own); a script's flood in that time keeps the newest 1000, never more."""
     history = CommandHistory()
     mine = history.sent("ptwl")
     for command_id in range(1, 1501):
         assert history.event({"id": command_id, "behavior": "ptwl", "status": "queued"}) == (None, False)
     assert len(history._early) == 1000 and min(history._early) == 501
-    history.accepted(mine, 1500)  # its event was among the newest: applied as it lands
-    assert mine.id == 1500 and mine.phase == "queued" and 1500 not in history._early
+    # A held id's newer event moves it to the newest: not the next to go.
+    assert history.event({"id": 501, "behavior": "ptwl", "status": "running"}) == (None, False)
+    history.event({"id": 1501, "behavior": "ptwl", "status": "queued"})
+    assert 501 in history._early and 502 not in history._early
+    history.accepted(mine, 1500)
+    assert history._early == {}  # nothing waits any more: all of it applied
+
+
+def test_a_held_event_is_applied_to_the_send_it_turned_out_to_be_and_its_end_announced() -> None:
+    history = CommandHistory()
+    mine = history.sent("ptwl")
+    history.event({"id": 7, "behavior": "ptwl", "status": "running"})
+    history.event({"id": 7, "behavior": "ptwl", "status": "done", "exit": "goal_reached"})
+    assert mine.phase == "sent"  # not applied before the 202 says whose it is
+    assert history.accepted(mine, 7) == [(mine, True)]  # applied, and it just ended
+    assert (mine.phase, mine.exit) == ("done", "goal_reached")
+    assert [v.id for v in history.recent()] == [7]  # one line, not a second for id 7
+
+
+def test_someone_elses_command_held_during_a_send_is_shown_once_no_send_waits() -> None:
+    """A script's PTWL that ran while this console's 202 was on its way: shown as the script's
+    line when the 202 lands, not held (and hidden) for ever."""
+    history = CommandHistory()
+    mine = history.sent("ptwl")
+    history.event({"id": 3, "behavior": "ptwl", "status": "running"})
+    history.event({"id": 3, "behavior": "ptwl", "status": "done", "exit": "timeout"})
+    released = history.accepted(mine, 4)
+    assert [(v.id, v.status, ended) for v, ended in released] == [(3, "timeout", True)]
+    assert [(v.id, v.phase) for v in history.recent()] == [(4, "queued"), (3, "done")]
+
+
+def test_a_refused_send_releases_what_was_held_for_it_and_a_send_still_waiting_keeps_it() -> None:
+    history = CommandHistory()
+    first, second = history.sent("rwe"), history.sent("rwe")
+    history.event({"id": 9, "behavior": "rwe", "status": "running"})
+    assert history.refused(first, "link: ConnectError") == []  # the second may still be id 9
+    assert list(history._early) == [9]
+    released = history.refused(second, "link: ConnectError")
+    assert [(v.id, v.phase, ended) for v, ended in released] == [(9, "running", False)]
+    assert history._early == {}

@@ -323,7 +323,7 @@ def test_a_bad_contact_plan_is_refused_naming_its_line(tmp_path: Path, text: str
         read_schedule(tmp_path / "plan.ion")
 
 
-def test_a_plan_file_is_read_up_to_4_mib(tmp_path: Path) -> None:
+def test_a_plan_file_is_read_up_to_4_mib(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """A file is read whole: one larger than 4 MiB is refused before it is read."""
     contact = "a contact +0 +600 1 2 100\na contact +0 +600 2 1 100\n"
     at_bound = tmp_path / "plan.ion"
@@ -331,6 +331,12 @@ def test_a_plan_file_is_read_up_to_4_mib(tmp_path: Path) -> None:
     assert at_bound.stat().st_size == 4 * 2**20 and read_schedule(at_bound).contacts
     over = tmp_path / "big.ion"
     over.write_text(contact + "#" * (4 * 2**20 - len(contact)) + "\n")
+
+    def not_read(*_: object, **__: object) -> str:
+        raise AssertionError("an oversized plan file was read")
+
+    monkeypatch.setattr(Path, "read_text", not_read)
+    monkeypatch.setattr(Path, "read_bytes", not_read)
     with pytest.raises(PlanFileError, match=r"big.ion: larger than 4194304 bytes"):
         read_schedule(over)
 

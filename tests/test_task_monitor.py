@@ -222,7 +222,7 @@ def test_leaving_contact_restarts_the_count_toward_persist_and_the_detail_says_t
     assert monitor.outside_s == pytest.approx(0.02)
     assert not judge(monitor, 0.5, 0.0, 0.01, 1) and monitor.outside_s == 0.0  # lifted off
     assert not judge(monitor, 10.0, 6.0, 0.01, 2)
-    monitor.last = Sample(10.0, 6.0, 0.01)  # the window's sample, as update() keeps it
+    monitor.last = Sample(10.0, 6.0, 0.01)  # update() keeps each window's sample; _judge alone does not
     assert monitor._judge(monitor.last)  # the third window in a row since contact again
     assert monitor.detail().startswith("force task monitor: tangential force 6.00 N at normal 10.00 N, ")
     assert monitor.detail().endswith(" for 30 ms")

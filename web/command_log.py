@@ -42,11 +42,16 @@ class CommandLog:
         self.check_instance(message["instance"])
         self._plot_event(message)
         view, ended = self.history.event(message)
-        if view is None:
-            return
-        self.changed(view)
-        if ended:
-            self.announce_end(view)
+        if view is not None:
+            self.show_applied([(view, ended)])
+
+    def show_applied(self, applied: list[tuple[CommandView, bool]]) -> None:
+        """Events the history applied (`history.event`, or released by a 202 or a refusal):
+        each line redrawn, each end announced."""
+        for view, ended in applied:
+            self.changed(view)
+            if ended:
+                self.announce_end(view)
 
     def stopped(self, aborted: int | None, dropped: list[int]) -> None:
         """STOP's answer: what it ended, said on every line at once."""

@@ -129,15 +129,15 @@ class Commanding:
             wait_s = HTTP_TIMEOUT_S + held_s if held_until is not None else None
             accepted = self._link.client.command(behavior, sender=sender, http_timeout_s=wait_s, **stamped)
         except RobotError as err:
-            self._log.history.refused(view, str(err.detail))
+            self._log.show_applied(self._log.history.refused(view, str(err.detail)))
             self._notifier.notify("Command refused", str(err.detail), "red")
         except httpx.HTTPError as err:
-            self._log.history.refused(view, f"link: {type(err).__name__}")
+            self._log.show_applied(self._log.history.refused(view, f"link: {type(err).__name__}"))
             self._notifier.notify("Command not delivered", f"{type(err).__name__}: {err}", "red")
         else:
             if held_until is not None:
                 view.detail = ""  # it has arrived
-            self._log.history.accepted(view, accepted.id)
+            self._log.show_applied(self._log.history.accepted(view, accepted.id))
             for warning in accepted.warnings:
                 self._notifier.notify(f"#{accepted.id}: check the approach", warning, "orange")
         self._log.changed(view)

@@ -61,7 +61,7 @@ def admit_only_through(front_door: "FrontDoor", viser_server: Any) -> None:
     """Make viser refuse any WebSocket that did not come through `front_door`.
 
     Uses viser's WebsockServer internals (its connect callbacks run before any message moves,
-    and it keeps each raw connection); `ConsoleApp` refuses to start if they are missing."""
+    and it keeps each raw connection); an AttributeError here if a viser release renames them."""
     infra = viser_server._websock_server
     connections = infra._live_connections
 
@@ -128,12 +128,15 @@ class FrontDoor:
         self._thread = threading.Thread(target=self._loop.run_forever, name="ptwl-front-door", daemon=True)
 
     def start(self) -> int:
-        """Bind and serve; the port actually bound."""
+        """Bind and serve; the port actually bound. A bind refused stops the thread again."""
         self._thread.start()
-        self._server = asyncio.run_coroutine_threadsafe(self._bind(), self._loop).result(timeout=10.0)
-        port = self.port_bound = int(self._server.sockets[0].getsockname()[1])
-        self.policy = AccessPolicy(self._host, port, None, (), self._allow_origins)
-        return port
+        try:
+            self._server = asyncio.run_coroutine_threadsafe(self._bind(), self._loop).result(timeout=10.0)
+        except BaseException:
+            self.close()
+            raise
+        assert self.port_bound is not None
+        return self.port_bound
 
     @property
     def address(self) -> str:
@@ -141,12 +144,31 @@ class FrontDoor:
         return host_port(self._host, self.port_bound or 0)
 
     async def _bind(self) -> asyncio.Server:
-        return await asyncio.start_server(self._handle, self._host, self._port, reuse_address=True)
+        server = await asyncio.start_server(self._handle, self._host, self._port, reuse_address=True)
+        # The policy is set here, on the loop, before any connection's handler can run (they
+        # wait for this coroutine to yield): set by start() after, a browser reconnecting to a
+        # fixed port in between met no policy.
+        port = self.port_bound = int(server.sockets[0].getsockname()[1])
+        self.policy = AccessPolicy(self._host, port, None, (), self._allow_origins)
+        return server
 
     def close(self) -> None:
+        """Stop listening, end the connections it still carries, and join its thread."""
+        if self._thread.is_alive():
+            with contextlib.suppress(TimeoutError, RuntimeError):
+                asyncio.run_coroutine_threadsafe(self._shut(), self._loop).result(timeout=5.0)
+            self._loop.call_soon_threadsafe(self._loop.stop)
+            self._thread.join(timeout=5.0)
+        if not self._thread.is_alive() and not self._loop.is_closed():
+            self._loop.close()
+
+    async def _shut(self) -> None:
         if self._server is not None:
-            self._loop.call_soon_threadsafe(self._server.close)
-        self._loop.call_soon_threadsafe(self._loop.stop)
+            self._server.close()
+        others = [task for task in asyncio.all_tasks() if task is not asyncio.current_task()]
+        for task in others:
+            task.cancel()
+        await asyncio.gather(*others, return_exceptions=True)
 
     async def _handle(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         try:
@@ -174,8 +196,13 @@ class FrontDoor:
             writer.write(_refusal(503, "console not ready"))
             await _close(writer)
             return
-        inner_writer.write(_marked(head, self.secret))
-        await asyncio.gather(_pipe(reader, inner_writer), _answer(inner_reader, writer))
+        try:
+            inner_writer.write(_marked(head, self.secret))
+            await asyncio.gather(_pipe(reader, inner_writer), _answer(inner_reader, writer))
+        finally:  # both ends closed, also when the front door closes and cancels this
+            for end in (inner_writer, writer):
+                with contextlib.suppress(ConnectionError, OSError, RuntimeError):
+                    end.close()
 
 
 async def _answer(inner_reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:

@@ -10,8 +10,10 @@ result of a later command, and the history starts again from them.
 
 Bounded: at most MAX_VIEWS commands are kept (a script can send commands for as long as it likes);
 the oldest finished ones are then folded into the counts and forgotten, so the paper's counts
-still cover the whole session. Events that come before the 202 of a command sent from here are
-kept until it lands, at most MAX_VIEWS of them (the newest).
+still cover the whole session. While a send's 202 is on its way, events of commands of the same
+behavior that this console does not know yet are held (one may be that send's): at most MAX_VIEWS
+of them, the newest. When no send waits any more (each 202 or refusal that lands), what is held
+is applied in the order it came: to the send it turned out to be, else as someone else's command.
 """
 
 import threading
@@ -109,19 +111,35 @@ class CommandHistory:
             self._trim()
             return view
 
-    def accepted(self, view: CommandView, command_id: int) -> None:
+    def accepted(self, view: CommandView, command_id: int) -> list[tuple[CommandView, bool]]:
+        """The robot's 202 for `view`; returns the held events it released, as `event` would."""
         with self._lock:
             view.id = command_id
             if view.phase == "sent":
                 view.phase = "queued"
             self._by_id[command_id] = view
-            early = self._early.pop(command_id, None)
-        if early is not None:
-            self.event(early)
+        return self._release_held()
 
-    def refused(self, view: CommandView, detail: str) -> None:
+    def refused(self, view: CommandView, detail: str) -> list[tuple[CommandView, bool]]:
+        """`view` never reached the robot; returns the held events that no send waits for now."""
         with self._lock:
             view.phase, view.exit, view.detail = "done", "refused", detail
+        return self._release_held()
+
+    def _release_held(self) -> list[tuple[CommandView, bool]]:
+        """Apply the held events no send waits for any more (a known id's, or of a behavior no
+        send of which is on its way), in the order they came."""
+        with self._lock:
+            waiting = {v.behavior for v in self._views if v.phase == "sent"}
+            released = [
+                message
+                for command_id, message in self._early.items()
+                if command_id in self._by_id or message["behavior"] not in waiting
+            ]
+            for message in released:
+                del self._early[int(message["id"])]
+        applied = [self.event(message) for message in released]
+        return [(view, ended) for view, ended in applied if view is not None]
 
     def stopped(self, aborted: int | None, dropped: list[int]) -> list[CommandView]:
         """A STOP the robot confirmed ended these commands `aborted`: shown at once, so no line
@@ -145,6 +163,7 @@ class CommandHistory:
             if view is None:
                 # Ours, with the 202 still on its way? Keep it until it lands; else someone else's.
                 if any(v.phase == "sent" and v.behavior == message["behavior"] for v in self._views):
+                    self._early.pop(command_id, None)  # its newest event, last in the order
                     self._early[command_id] = message
                     while len(self._early) > MAX_VIEWS:  # a flood while ours is on its way
                         self._early.pop(next(iter(self._early)))  # the oldest goes first

@@ -55,12 +55,12 @@ def direction_now(outlook: dict[str, Any], direction: str, now: float) -> Direct
 
 def duration_text(seconds: float) -> str:
     """42 s, 6 min 10 s, 2 h 05 min."""
-    seconds = max(0.0, seconds)
-    if seconds < 60:
-        return f"{seconds:.0f} s"
-    if seconds < 3600:
-        return f"{int(seconds // 60)} min {int(seconds % 60):02d} s"
-    return f"{int(seconds // 3600)} h {int(seconds % 3600 // 60):02d} min"
+    whole_s = round(max(0.0, seconds))  # first: 59.7 s is "1 min 00 s", never "60 s"
+    if whole_s < 60:
+        return f"{whole_s} s"
+    if whole_s < 3600:
+        return f"{whole_s // 60} min {whole_s % 60:02d} s"
+    return f"{whole_s // 3600} h {whole_s % 3600 // 60:02d} min"
 
 
 def clock_text(unix_s: float) -> str:

@@ -20,11 +20,15 @@ class ConsoleSite:
         except BaseException:
             self.front_door.close()
             raise
-        admit_only_through(self.front_door, self.viser)
-        self.front_door.inner_port = self.viser.get_port()
-        self.viser.initial_camera.position, self.viser.initial_camera.look_at = INITIAL_CAMERA
-        self.viser.gui.configure_theme(control_width="large", dark_mode=False)
-        self.notifier = Notifier(self.viser)
+        try:
+            admit_only_through(self.front_door, self.viser)
+            self.front_door.inner_port = self.viser.get_port()
+            self.viser.initial_camera.position, self.viser.initial_camera.look_at = INITIAL_CAMERA
+            self.viser.gui.configure_theme(control_width="large", dark_mode=False)
+            self.notifier = Notifier(self.viser)
+        except BaseException:
+            self.close()
+            raise
 
     @property
     def url(self) -> str:
