@@ -1,5 +1,7 @@
 """Shared measurement helpers for the robot_sim tests."""
 
+import copy
+import functools
 import os
 import threading
 import time
@@ -18,6 +20,7 @@ from robot_sim.params import PtwlParams
 from robot_sim.policies import POLICIES, run_onboard
 from robot_sim.pose_math import rotate_world
 from robot_sim.sim import Simulation
+from robot_sim.telemetry import state_fields
 
 # A preview's wall time beside other tests: ~0.2 s alone, 1.44 s measured beside another test.
 # The tests hold its CPU time under 1 s; this bound fails one that waits (a lock, a sleep).
@@ -148,3 +151,14 @@ def wait_until(condition: Callable[[], bool], timeout_s: float = 10.0) -> None:
     while not condition():
         assert time.monotonic() < deadline, "timed out"
         time.sleep(0.02)
+
+
+def robot_state(**fields: Any) -> dict[str, Any]:
+    """A state message as the robot sends it (free_space, at rest: seq 7 of instance "a"), with
+    `fields` over it: a fresh deep copy each call, from one simulation built once."""
+    return {**copy.deepcopy(_resting_state()), "seq": 7, "sent_at": 100.0, "instance": "a", **fields}
+
+
+@functools.cache
+def _resting_state() -> dict[str, Any]:
+    return state_fields(Simulation("free_space"), [])

@@ -3,15 +3,14 @@ bar's force, who has control and a recording said as such; frames listed with th
 
 import math
 
-from robot_sim.sim import Simulation
-from robot_sim.telemetry import state_fields
+from tests.helpers import robot_state
 from web.panel_html import frames_html
 from web.status_bar import BarInputs, _fraction_done, _prediction_html, _render
 from web.telemetry_health import LinkLine
 
 
 def bar(**more: object) -> str:
-    state = {**state_fields(Simulation("free_space"), []), "seq": 7, "sent_at": 100.0, "instance": "a"}
+    state = robot_state()
     state["wrench"] = [3.0, 4.0, 0.0, 0.0, 0.0, 0.5]  # |f| 5 N
     inputs = BarInputs(state, 100.1, True, LinkLine("fresh", "link round trip 0 s · connected"), 0.0, "", "")
     return str(_render(BarInputs(**{**inputs.__dict__, **more}), 0.1, "fresh"))
@@ -52,7 +51,7 @@ def monitor_fields(**more: object) -> dict[str, object]:
 
 def test_the_force_monitor_never_passes_silently_on_the_bar() -> None:
     def shown(**more: object) -> str:
-        state = {**state_fields(Simulation("free_space"), []), "seq": 7, "sent_at": 100.0, "instance": "a"}
+        state = robot_state()
         state["active_command"] = more.pop("active_command", 3)
         state["monitor"] = monitor_fields(**more)
         inputs = BarInputs(state, 100.1, True, LinkLine("fresh", "link round trip 0 s"), 0.0, "", "")
@@ -73,7 +72,7 @@ def test_the_force_monitor_never_passes_silently_on_the_bar() -> None:
 
 
 def test_the_port_and_the_twins_prediction_are_said_in_mm() -> None:
-    state = {**state_fields(Simulation("free_space"), []), "seq": 7, "sent_at": 100.0, "instance": "a"}
+    state = robot_state()
     state["port"] = {**state["port"], "position": [0.4123, -0.0205, 0.3]}
     shown = str(_render(BarInputs(state, 100.1, True, LinkLine("fresh", ""), 0.0, "", ""), 0.1, "fresh"))
     assert "port (412.3, -20.5, 300.0) mm" in shown

@@ -11,9 +11,7 @@ import time
 import pytest
 import viser
 
-from robot_sim.sim import Simulation
-from robot_sim.telemetry import state_fields
-from tests.helpers import wait_until
+from tests.helpers import robot_state, wait_until
 from tests.worker_rounds import Rounds
 from web.status_bar import BarInputs, Level, StatusBar
 from web.stop_sender import StopState
@@ -30,7 +28,7 @@ def failed_ticks(shown: str) -> int:
 def test_a_failing_tick_is_said_on_the_bar_and_the_next_good_one_shows_the_robot_again(
     caplog: pytest.LogCaptureFixture,
 ) -> None:
-    state = {**state_fields(Simulation("free_space"), []), "seq": 7, "instance": "a"}
+    state = robot_state()
     failing = threading.Event()
     failures = itertools.count(1)
 
@@ -70,7 +68,7 @@ def test_a_failing_tick_is_said_on_the_bar_and_the_next_good_one_shows_the_robot
 def test_the_bar_ticks_every_80_ms_and_draws_each_new_stop_state() -> None:
     """12.5 updates a second whatever arrives; the STOP row shows each state the sender goes
     through (a press, the robot's answer) at the next tick."""
-    state = {**state_fields(Simulation("free_space"), []), "seq": 7, "instance": "a"}
+    state = robot_state()
     stops = iter([StopState(), StopState(), StopState("pending", "STOP sent", 1)])
 
     def inputs() -> BarInputs:
