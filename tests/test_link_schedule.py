@@ -215,6 +215,19 @@ def test_states_held_through_a_gap_do_not_pile_up() -> None:
     assert sim.link.stats_view()["downlink"]["dropped"]["superseded"] == 499
 
 
+def test_a_blackout_counts_from_when_its_profile_took_effect_not_from_clock_zero() -> None:
+    """A link whose clock reads 1000 s when the profile is set: its blackout at +10 s for 5 s is
+    the clock's [1010, 1015)."""
+    sim = SimulatedLink(LinkProfile(blackouts=[{"start": 10.0, "duration": 5.0}]), start=1000.0)
+    sim.advance_to(1009.0)
+    down = sim.link.outlook(now_unix=5_000.0)["downlink"]
+    assert (down["in_contact"], down["changes_in_s"]) == (True, pytest.approx(1.0))
+    sim.advance_to(1012.0)
+    down = sim.link.outlook(now_unix=5_000.0)["downlink"]
+    assert (down["in_contact"], down["changes_in_s"]) == (False, pytest.approx(3.0))
+    assert down["closed_since_unix"] == pytest.approx(5_000.0 - 2.0)
+
+
 def test_outlook_counts_down_to_the_next_loss_of_signal_and_back() -> None:
     profile = named_profile("leo_tdrs")
     sim = SimulatedLink(profile)

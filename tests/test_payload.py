@@ -53,3 +53,24 @@ def test_compensation_refers_torque_to_the_port() -> None:
     w = M @ np.concatenate([f_sensor, tau_sensor, g_ft])
     np.testing.assert_allclose(w[0:3], f_env_ft, atol=1e-12)
     np.testing.assert_allclose(w[3:6], 0.0, atol=1e-12)
+
+
+def test_a_sensor_set_off_its_body_and_turned_measures_from_its_own_origin() -> None:
+    """Every shipped tool has its sensor at the tool body's origin, so a sensor offset read with
+    the wrong sign would not show there: offset and turn it, and compare with the same figures
+    taken in the world (the sites as MuJoCo places them)."""
+    sim = Simulation("free_space")
+    model, layout = sim.model, sim.layout
+    model.site_pos[layout.ft_site] += [0.003, -0.002, 0.01]
+    model.site_quat[layout.ft_site] = [np.cos(0.3), 0.0, 0.0, np.sin(0.3)]  # 0.6 rad about z
+    model.site_sameframe[layout.ft_site] = 0  # else MuJoCo still places it at the body's frame
+    payload = Payload.from_model(model, layout)
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_comPos(model, data)
+    R_world_ft = data.site_xmat[layout.ft_site].reshape(3, 3)
+    p_world_ft = data.site_xpos[layout.ft_site]
+    com_world = data.subtree_com[layout.tool_body]
+    np.testing.assert_allclose(payload.com_ft, R_world_ft.T @ (com_world - p_world_ft), atol=1e-12)
+    port_world = data.site_xpos[layout.port_site]
+    np.testing.assert_allclose(payload.port_ft, R_world_ft.T @ (port_world - p_world_ft), atol=1e-12)

@@ -4,6 +4,7 @@ or how far out of reach), and the controller then stops where that said (issue 2
 import re
 from pathlib import Path
 
+import mujoco
 import numpy as np
 import pytest
 from fastapi.testclient import TestClient
@@ -61,6 +62,20 @@ def test_a_goal_out_of_reach_says_how_far_and_the_port_stops_about_there() -> No
     short_mm = 1000.0 * float(np.linalg.norm(ptwl.p_world_goal - sim.controller.p_world_port))
     assert report.exit is ExitCondition.TIMEOUT
     assert stall_mm == pytest.approx(short_mm, rel=0.10) and short_mm > 50.0
+
+
+def test_a_walk_that_stalls_is_given_up_then_not_walked_to_its_200_steps(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Every PTWL sent is checked so: out of reach, the walk stops once 20 steps gain under
+    0.1 mm (measured: 38 steps for 0.3 m out, against the 200 it may take)."""
+    sim = Simulation("free_space")
+    params = PtwlParams(translation=[0.3, 0, 0], frame="base", duration=5.0)
+    steps = []
+    real_kinematics = mujoco.mj_kinematics
+    monkeypatch.setattr(mujoco, "mj_kinematics", lambda m, d: steps.append(1) or real_kinematics(m, d))
+    [warning] = warned(sim, params)
+    assert STALLS.search(warning) and 20 < len(steps) < 100, len(steps)
 
 
 def test_the_api_answers_an_unreachable_ptwl_with_its_warning(tmp_path: Path) -> None:

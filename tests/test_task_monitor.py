@@ -24,6 +24,7 @@ def test_rls_learns_a_line_and_its_fast_parameter_follows_a_step() -> None:
         normal = rng.uniform(2.0, 20.0)
         rls.update(np.array([normal, 1.0]), 0.4 * normal + 2.0 + rng.normal(0.0, 0.05))
     assert rls.theta == pytest.approx([0.4, 2.0], rel=0.01)
+    assert rls.updates == 400  # what the monitor says as "samples learned"
     for i in range(60):  # the constant steps to 5 N: the fast-forgetting parameter takes it
         normal = rng.uniform(2.0, 20.0)
         rls.update(np.array([normal, 1.0]), 0.4 * normal + 5.0)
