@@ -47,6 +47,17 @@ def test_the_front_door_holds_its_port_before_viser_takes_an_ephemeral_one(
         site.close()
 
 
+def test_only_the_front_doors_url_is_printed_not_visers_inner_one(capsys: pytest.CaptureFixture[str]) -> None:
+    """viser prints a box with its own URL; that port refuses browsers (not through the front
+    door), so a user who opened it would find a console that never connects."""
+    site = ConsoleSite("127.0.0.1", 0, ())
+    try:
+        printed = capsys.readouterr().out
+        assert f":{site.viser.get_port()}" not in printed and "Websocket" not in printed, printed
+    finally:
+        site.close()
+
+
 def test_a_front_door_with_no_viser_yet_says_the_console_is_not_ready() -> None:
     door = FrontDoor("127.0.0.1", 0)
     port = door.start()

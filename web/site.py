@@ -1,6 +1,9 @@
 """The console's web surface: the viser server (GUI, 3D scene, toasts) behind its front door,
 opened and closed in the one order that works."""
 
+import contextlib
+import io
+
 import viser
 
 from web.front_door import FrontDoor, admit_only_through
@@ -16,7 +19,10 @@ class ConsoleSite:
         self.front_door = FrontDoor(host, port, allow_origins)
         self.front_door.start()
         try:
-            self.viser = viser.ViserServer(host="127.0.0.1", port=0, label="ptwl console", verbose=False)
+            # Not printed: viser's own box names its inner port, which refuses a browser (only
+            # the front door's URL, printed by the caller, opens the console).
+            with contextlib.redirect_stdout(io.StringIO()):
+                self.viser = viser.ViserServer(host="127.0.0.1", port=0, label="ptwl console", verbose=False)
         except BaseException:
             self.front_door.close()
             raise
