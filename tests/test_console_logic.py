@@ -632,6 +632,27 @@ def test_an_end_that_beat_its_202_down_the_link_is_announced_when_the_202_lands(
     assert console.log.history.latest() is not None and console.log.history.latest().status == "completed"  # type: ignore[union-attr]
 
 
+def test_a_send_that_fails_unexpectedly_is_refused_not_left_sent(
+    console: ConsoleApp, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Left "sent", every later event of its behavior would be held as maybe its own, unseen."""
+    wait_for_state(console)
+
+    def answer_that_does_not_parse(behavior: str, **_: Any) -> Any:
+        raise ValueError("202 body: not JSON")
+
+    monkeypatch.setattr(console.link.client, "command", answer_that_does_not_parse)
+    with viser_client(console) as desk:
+        console.seat.take(desk.client_id)
+        with pytest.raises(ValueError, match="not JSON"):
+            console.commanding.send(desk, "rwe", desk.panel.rwe.params())
+    mine = console.log.history.latest()
+    assert mine is not None and (mine.phase, mine.exit) == ("done", "refused")
+    assert mine.detail == "not sent: ValueError: 202 body: not JSON"
+    shown, _ = console.log.history.event({"id": 91, "behavior": "rwe", "status": "running"})
+    assert shown is not None and shown.id == 91  # a script's RWE: shown at once, not held
+
+
 def test_the_monitor_box_asks_for_the_force_task_monitor(console: ConsoleApp) -> None:
     with viser_client(console) as desk:
         panel = desk.panel

@@ -87,11 +87,15 @@ def test_closing_ends_the_connections_it_carries_and_joins_its_thread() -> None:
         door = FrontDoor("127.0.0.1", 0)
         port = door.start()
         door.inner_port = console.getsockname()[1]
-        with socket.create_connection(("127.0.0.1", port), timeout=10.0) as browser:
+        with (
+            socket.create_connection(("127.0.0.1", port), timeout=10.0) as browser,
+            socket.create_connection(("127.0.0.1", port), timeout=10.0) as silent,  # no head yet
+        ):
             browser.sendall(f"GET / HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n".encode())
             inner, _ = console.accept()  # the front door passed it on
             with inner:
                 assert inner.recv(4096).startswith(b"GET / HTTP/1.1")
                 door.close()
                 assert browser.recv(4096) == b""  # closed by the front door, not left hanging
+                assert silent.recv(4096) == b""  # and one still sending its head
     assert not door._thread.is_alive() and door._loop.is_closed()

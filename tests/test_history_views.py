@@ -112,3 +112,36 @@ def test_a_refused_send_releases_what_was_held_for_it_and_a_send_still_waiting_k
     released = history.refused(second, "link: ConnectError")
     assert [(v.id, v.phase, ended) for v, ended in released] == [(9, "running", False)]
     assert history._early == {}
+
+
+def test_a_held_copy_is_dropped_once_its_id_is_known_and_never_applied_over_a_newer_state() -> None:
+    """Held "running" for #5 (a send of the same behavior was on its way), then the robot's records
+    show #5 done: a later 202 must not bring "running" back (nor announce its end twice)."""
+    history = CommandHistory()
+    mine = history.sent("ptwl")
+    history.event({"id": 5, "behavior": "ptwl", "status": "running"})
+    records = [{"id": 5, "type": "ptwl", "status": "running"}]
+    history.reconcile(records)  # the robot's records, read while our 202 is on its way
+    done = history.event({"id": 5, "behavior": "ptwl", "status": "done", "exit": "goal_reached"})
+    assert done[1] is True
+    assert history.accepted(mine, 6) == []  # nothing held for #5 any more
+    five = next(v for v in history.recent() if v.id == 5)
+    assert (five.phase, five.exit) == ("done", "goal_reached")
+
+
+def test_a_send_a_reconcile_showed_before_its_202_keeps_one_line() -> None:
+    history = CommandHistory()
+    mine = history.sent("rwe", sender="desk 1 at console a")
+    history.reconcile([{"id": 8, "type": "rwe", "status": "running", "sender": "desk 1 at console a"}])
+    assert [v.id for v in history.recent()] == [None, 8]  # ours (no id yet) and the record's
+    history.accepted(mine, 8)
+    assert history.recent() == [mine] and (mine.id, mine.phase, mine.local) == (8, "running", 1)
+
+
+def test_a_held_event_of_a_command_the_robots_records_show_finished_is_not_shown_running() -> None:
+    history = CommandHistory()
+    mine = history.sent("dither")
+    history.event({"id": 7, "behavior": "dither", "status": "running"})  # maybe ours: held
+    history.reconcile([{"id": 7, "type": "dither", "status": "done", "exit": "completed"}])
+    assert history.accepted(mine, 9) == []  # #7 ended before this console knew of it: not news
+    assert [(v.id, v.phase) for v in history.recent()] == [(9, "queued")]

@@ -22,6 +22,7 @@ from server.models import StopResult
 from web.checks import Check, check_command
 from web.command_log import CommandLog
 from web.defaults import ConsoleDefaults
+from web.history import CommandView
 from web.known_frames import KnownFrames
 from web.link_plan import SendPlan, clock_text, plan_send, run_time_s, sim_time_at
 from web.notifier import Notifier
@@ -108,6 +109,20 @@ class Commanding:
         sender = f"{desk.name} at console {self._console_name}"
         target = self.target_of(params) if behavior == "ptwl" else None  # Send step's: the step's
         view = self._log.sent(behavior, target, sender)
+        try:
+            self._deliver(view, behavior, params, sender)
+        except Exception as err:
+            # Not sent after all (a check, the twin, the answer's parsing): never left "sent",
+            # which would hold every event of its behavior as maybe its own (web/history.py).
+            if view.phase == "sent":
+                detail = f"not sent: {type(err).__name__}: {err}"
+                self._log.show_applied(self._log.history.refused(view, detail))
+                self._log.changed(view)
+            raise
+
+    def _deliver(self, view: CommandView, behavior: str, params: dict[str, Any], sender: str) -> None:
+        """Send `view`'s command over the link, held for its uplink contact if need be; the answer
+        (accepted or refused) onto the view."""
         now = time.time()
         # A closed uplink holds the command for its next contact: it is that much older when it
         # arrives (max_age), and its answer that much later (the HTTP wait).

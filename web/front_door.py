@@ -131,7 +131,7 @@ class FrontDoor:
         """Bind and serve; the port actually bound. A bind refused stops the thread again."""
         self._thread.start()
         try:
-            self._server = asyncio.run_coroutine_threadsafe(self._bind(), self._loop).result(timeout=10.0)
+            asyncio.run_coroutine_threadsafe(self._bind(), self._loop).result(timeout=10.0)
         except BaseException:
             self.close()
             raise
@@ -148,6 +148,7 @@ class FrontDoor:
         # The policy is set here, on the loop, before any connection's handler can run (they
         # wait for this coroutine to yield): set by start() after, a browser reconnecting to a
         # fixed port in between met no policy.
+        self._server = server  # here, not from start(): closed by close() even if start() timed out
         port = self.port_bound = int(server.sockets[0].getsockname()[1])
         self.policy = AccessPolicy(self._host, port, None, (), self._allow_origins)
         return server
@@ -171,6 +172,13 @@ class FrontDoor:
         await asyncio.gather(*others, return_exceptions=True)
 
     async def _handle(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        try:
+            await self._serve(reader, writer)
+        finally:  # at any stage, also when close() cancels it before the pipes: the browser's end
+            with contextlib.suppress(ConnectionError, OSError, RuntimeError):
+                writer.close()
+
+    async def _serve(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
         try:
             head = await reader.readuntil(b"\r\n\r\n")
         except asyncio.LimitOverrunError:

@@ -13,7 +13,7 @@ the oldest finished ones are then folded into the counts and forgotten, so the p
 still cover the whole session. While a send's 202 is on its way, events of commands of the same
 behavior that this console does not know yet are held (one may be that send's): at most MAX_VIEWS
 of them, the newest. When no send waits any more (each 202 or refusal that lands), what is held
-is applied in the order it came: to the send it turned out to be, else as someone else's command.
+is applied, oldest first: to the send it turned out to be, else as someone else's command.
 """
 
 import threading
@@ -117,28 +117,33 @@ class CommandHistory:
             view.id = command_id
             if view.phase == "sent":
                 view.phase = "queued"
+            other = self._by_id.get(command_id)
+            if other is not None and other is not view:  # a reconcile showed it first: one line
+                self._views.remove(other)
+                _take_over(view, other)
             self._by_id[command_id] = view
-        return self._release_held()
+            # Under the same lock: a newer event the feed delivers next comes after these.
+            return self._release_held()
 
     def refused(self, view: CommandView, detail: str) -> list[tuple[CommandView, bool]]:
         """`view` never reached the robot; returns the held events that no send waits for now."""
         with self._lock:
             view.phase, view.exit, view.detail = "done", "refused", detail
-        return self._release_held()
+            return self._release_held()
 
     def _release_held(self) -> list[tuple[CommandView, bool]]:
-        """Apply the held events no send waits for any more (a known id's, or of a behavior no
-        send of which is on its way), in the order they came."""
-        with self._lock:
-            waiting = {v.behavior for v in self._views if v.phase == "sent"}
-            released = [
-                message
-                for command_id, message in self._early.items()
-                if command_id in self._by_id or message["behavior"] not in waiting
-            ]
-            for message in released:
-                del self._early[int(message["id"])]
-        applied = [self.event(message) for message in released]
+        """(under the lock) Apply the held events no send waits for any more (a known id's, or of
+        a behavior no send of which is on its way), oldest first (by each id's newest event)."""
+        waiting = {v.behavior for v in self._views if v.phase == "sent"}
+        released = [
+            message
+            for command_id, message in self._early.items()
+            if command_id in self._by_id or message["behavior"] not in waiting
+        ]
+        applied = []
+        for message in released:
+            del self._early[int(message["id"])]
+            applied.append(self._apply_event(message))
         return [(view, ended) for view, ended in applied if view is not None]
 
     def stopped(self, aborted: int | None, dropped: list[int]) -> list[CommandView]:
@@ -157,24 +162,29 @@ class CommandHistory:
 
     def event(self, message: dict[str, Any]) -> tuple[CommandView | None, bool]:
         """Apply a telemetry command event; (the view, whether it just ended)."""
-        command_id = int(message["id"])
         with self._lock:
-            view = self._by_id.get(command_id)
-            if view is None:
-                # Ours, with the 202 still on its way? Keep it until it lands; else someone else's.
-                if any(v.phase == "sent" and v.behavior == message["behavior"] for v in self._views):
-                    self._early.pop(command_id, None)  # its newest event, last in the order
-                    self._early[command_id] = message
-                    while len(self._early) > MAX_VIEWS:  # a flood while ours is on its way
-                        self._early.pop(next(iter(self._early)))  # the oldest goes first
-                    return None, False
-                view = CommandView(0, message["behavior"], "queued", id=command_id, scene=self.scene)
-                self._views.append(view)
-                self._by_id[command_id] = view
-                self._trim()
-            was_done = view.phase == "done"
-            _apply(view, message)
-            return view, view.phase == "done" and not was_done
+            return self._apply_event(message)
+
+    def _apply_event(self, message: dict[str, Any]) -> tuple[CommandView | None, bool]:
+        """(under the lock)"""
+        command_id = int(message["id"])
+        view = self._by_id.get(command_id)
+        if view is None:
+            # Ours, with the 202 still on its way? Keep it until it lands; else someone else's.
+            if any(v.phase == "sent" and v.behavior == message["behavior"] for v in self._views):
+                self._early.pop(command_id, None)  # its newest event, last in the order
+                self._early[command_id] = message
+                while len(self._early) > MAX_VIEWS:  # a flood while ours is on its way
+                    self._early.pop(next(iter(self._early)))  # the oldest goes first
+                return None, False
+            view = CommandView(0, message["behavior"], "queued", id=command_id, scene=self.scene)
+            self._views.append(view)
+            self._by_id[command_id] = view
+            self._trim()
+        self._early.pop(command_id, None)  # a copy held before the id was known is older
+        was_done = view.phase == "done"
+        _apply(view, message)
+        return view, view.phase == "done" and not was_done
 
     def reconcile(self, records: list[dict[str, Any]]) -> list[CommandView]:
         """Take the robot's own records (GET /api/commands, after a reconnect or lost messages) as
@@ -186,6 +196,7 @@ class CommandHistory:
                 if self._instance is not None and record.get("instance", self._instance) != self._instance:
                     continue  # read from a run of the robot that has since restarted: stale
                 view = self._by_id.get(int(record["id"]))
+                self._early.pop(int(record["id"]), None)  # the robot's record is newer
                 if view is None:
                     if record["status"] == "done":
                         continue  # finished before this console knew of it: not news
@@ -331,3 +342,13 @@ def _apply(view: CommandView, message: dict[str, Any]) -> None:
     if goal is not None:
         view.target = (goal["position"], goal["quaternion"])
         view.resolved = True
+
+
+def _take_over(view: CommandView, shown: CommandView) -> None:
+    """The robot's state of a command a reconcile showed before its 202 came back, onto the line
+    of the send it was (one line per command, with the send's own number and target)."""
+    view.phase, view.exit, view.detail, view.duration = shown.phase, shown.exit, shown.detail, shown.duration
+    view.peak_force, view.peak_torque = shown.peak_force, shown.peak_torque
+    view.sender, view.steps = shown.sender or view.sender, shown.steps or view.steps
+    if shown.resolved:
+        view.target, view.resolved = shown.target, True
