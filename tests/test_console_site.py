@@ -98,4 +98,6 @@ def test_closing_ends_the_connections_it_carries_and_joins_its_thread() -> None:
                 door.close()
                 assert browser.recv(4096) == b""  # closed by the front door, not left hanging
                 assert silent.recv(4096) == b""  # and one still sending its head
+                inner.settimeout(10.0)
+                assert inner.recv(4096) == b""  # and viser's end of the pipe
     assert not door._thread.is_alive() and door._loop.is_closed()

@@ -207,10 +207,10 @@ class FrontDoor:
         try:
             inner_writer.write(_marked(head, self.secret))
             await asyncio.gather(_pipe(reader, inner_writer), _answer(inner_reader, writer))
-        finally:  # both ends closed, also when the front door closes and cancels this
-            for end in (inner_writer, writer):
-                with contextlib.suppress(ConnectionError, OSError, RuntimeError):
-                    end.close()
+        finally:  # viser's end closed, also when the front door closes and cancels this (the
+            # browser's end: `_handle`)
+            with contextlib.suppress(ConnectionError, OSError, RuntimeError):
+                inner_writer.close()
 
 
 async def _answer(inner_reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
