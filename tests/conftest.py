@@ -5,6 +5,7 @@ import os
 from collections.abc import Iterator
 
 import pytest
+from xdist.remote import Producer
 
 import ptwl.launcher
 from ptwl.launcher import ServiceProcess, running_console, running_proxy, running_server
@@ -12,6 +13,7 @@ from robot_sim.warm import warm_up
 from server.client import RobotClient
 from tests.console_page import PAGE_WAIT_MS
 from tests.frame_cap import CappedBrowser
+from tests.scheduling import BROWSER_FILES, PagesCappedScheduling, file_order
 from tests.zygote import Zygote
 from web.browser import chromium_available, launch
 
@@ -121,17 +123,21 @@ def pytest_sessionstart(session: pytest.Session) -> None:
 
 
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
-    """`-n auto`: a worker per core; one more for the inner loop (`-m "not browser"`).
-
-    Without the browser files most of the suite waits on real time (a robot that moves in real
-    time, a link's delays) with its core idle: on 2 cores the inner loop took 6:42 with 2 workers
-    (76 % of the cores busy) and 5:27 with 3 (89 %), the same 1,193 tests passing. A page keeps
-    most of a core busy while its test waits, so the full suite gained nothing from a third worker
-    (12:21 against 12:22, 1,431 CPU-s against 1,260) and three pages at once made two real-time
-    checks late."""
+    """`-n auto`: a worker per core and one more; two more for the inner loop (`-m "not browser"`).
+    Only a worker per core takes the browser files (tests/scheduling.py), so no more pages draw at
+    once than with a worker per core, while the extra workers run the files that mostly wait on
+    real time."""
     cores = len(os.sched_getaffinity(0))
     inner_loop = (config.getoption("markexpr") or "").split() == ["not", "browser"]
-    return cores + 1 if inner_loop else cores
+    return cores + 2 if inner_loop else cores + 1
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_xdist_make_scheduler(config: pytest.Config, log: Producer) -> PagesCappedScheduling | None:
+    """`--dist loadfile` as tests/scheduling.py deals it: browser files to a worker per core."""
+    if config.getvalue("dist") != "loadfile":
+        return None
+    return PagesCappedScheduling(config, log, page_workers=len(os.sched_getaffinity(0)))
 
 
 def pytest_configure(config: pytest.Config) -> None:
@@ -143,28 +149,22 @@ def pytest_configure(config: pytest.Config) -> None:
         config.option.loadscopereorder = False
 
 
-# The longest files without a browser, measured (2 workers, idle): each 30-50 s, against a few
-# seconds for most. They start right after the browser files, for the same reason.
-LONG_FILES = (
-    "test_sweep_ray_cluster.py",  # two `ray start` nodes
-    "test_sweep_outputs.py",  # sweeps, one on a local Ray
-    "test_openapi_fuzz.py",  # Schemathesis, twice at once
-    "test_link_proxy.py",
-    "test_server_commands.py",
-    "test_state_machines.py",
-)
-
-
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     """Every test that drives Chromium is marked `browser`, so `-m "not browser"` leaves them out.
 
-    Files with browser tests run first, then LONG_FILES (each file's tests stay together and in
-    order): they are the longest (a minute to four on 2 cores for a browser file), so with a
-    worker per core (`-n auto --dist loadfile`) the short files fill in behind them instead of one
-    worker finishing a long file alone at the end."""
+    Files with browser tests run first, then tests/scheduling.py's LONG_FILES, then the rest (each
+    file's tests together and in order): the long files start while there is still work to fill in
+    behind them."""
     browser_files = set()
     for item in items:
         if "browser" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.browser)
-            browser_files.add(item.path)
-    items.sort(key=lambda item: (item.path not in browser_files, item.path.name not in LONG_FILES))
+            browser_files.add(item.path.name)
+    items.sort(key=lambda item: file_order(item.path.name, item.path.name in browser_files))
+
+
+def pytest_runtest_setup(item: pytest.Item) -> None:
+    """A test that drives Chromium from a file missing in BROWSER_FILES fails: the scheduler, which
+    sees node ids only, would let every worker take its file."""
+    if item.get_closest_marker("browser") and item.path.name not in BROWSER_FILES:
+        pytest.fail(f"{item.path.name} drives Chromium: add it to BROWSER_FILES in tests/scheduling.py")

@@ -92,13 +92,14 @@ def test_the_age_keeps_counting_through_a_blackout_and_turns_amber_then_red(brow
     # here), red past RTT + 5 s. Idle, every update is within a tick of the page's clock. Under
     # load an update the console computed can reach the page late (the console, the renderer and
     # its software GPU all starved): measured 0.41 s with two tests beside a hogged core, 0.62 s
-    # with three test files on 2 cores, 0.85 s in a hogged CI run. So each update within 1.5 s,
+    # with three test files on 2 cores, 0.85 s in a hogged CI run, 1.51 s with three workers (two
+    # of them on pages) beside a hogged core (tests/scheduling.py). So each update within 2.5 s,
     # and the age's rate (the median slope between updates at least 2 s apart, which one late
     # update cannot move) within 10 % of the page's clock: a frozen age is 5 s off by the end and
     # grows at a rate of 0.
     t_first, age_first = quiet[0][0] / 1000.0, float(quiet[0][1])
     for t_ms, age, _, level in quiet:
-        assert float(age) - age_first == pytest.approx(t_ms / 1000.0 - t_first, abs=1.5)
+        assert float(age) - age_first == pytest.approx(t_ms / 1000.0 - t_first, abs=2.5)
         expected = "fresh" if float(age) <= 1.0 else "late" if float(age) <= 5.0 else "stale"
         assert level == expected, (age, level)
     slopes = [
