@@ -13,7 +13,7 @@ from robot_sim.warm import warm_up
 from server.client import RobotClient
 from tests.console_page import PAGE_WAIT_MS
 from tests.frame_cap import CappedBrowser
-from tests.scheduling import BROWSER_FILES, PagesCappedScheduling, file_order
+from tests.scheduling import PagesCappedScheduling, file_order, is_browser_file
 from tests.zygote import Zygote
 from web.browser import chromium_available, launch
 
@@ -155,16 +155,18 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     Files with browser tests run first, then tests/scheduling.py's LONG_FILES, then the rest (each
     file's tests together and in order): the long files start while there is still work to fill in
     behind them."""
-    browser_files = set()
     for item in items:
         if "browser" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.browser)
-            browser_files.add(item.path.name)
-    items.sort(key=lambda item: file_order(item.path.name, item.path.name in browser_files))
+    items.sort(key=lambda item: file_order(file_of(item)))
+
+
+def file_of(item: pytest.Item) -> str:
+    return item.nodeid.split("::", 1)[0]
 
 
 def pytest_runtest_setup(item: pytest.Item) -> None:
-    """A test that drives Chromium from a file missing in BROWSER_FILES fails: the scheduler, which
+    """A test that drives Chromium from a file missing in BROWSER_FILES errors: the scheduler, which
     sees node ids only, would let every worker take its file."""
-    if item.get_closest_marker("browser") and item.path.name not in BROWSER_FILES:
-        pytest.fail(f"{item.path.name} drives Chromium: add it to BROWSER_FILES in tests/scheduling.py")
+    if item.get_closest_marker("browser") and not is_browser_file(file_of(item)):
+        pytest.fail(f"{file_of(item)} drives Chromium: add it to BROWSER_FILES in tests/scheduling.py")

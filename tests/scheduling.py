@@ -4,20 +4,19 @@ Two kinds of file share the cores. A file that drives Chromium keeps most of a c
 its tests wait (a page draws, its robot, link and console run), and its real-time checks go late
 when pages outnumber the cores. Most other files wait on real time with their core idle (a robot
 that moves in real time, a link's delays): serially the files without a browser took 284 CPU-s
-in 8:40 of wall time, a third of a core. So the workers outnumber the cores, but only as many of
-them as there are cores take browser files (`PagesCappedScheduling`): the others start on the
-longest files without one, and every worker takes what is left once the browser files are dealt.
+in 8:40 of wall time, about half a core. So the workers outnumber the cores, but no more of them
+than there are cores hold browser files at once (`PagesCappedScheduling`): the others start on
+the longest files without one, and every worker takes what is left.
 """
-
-from pathlib import PurePosixPath
 
 import pytest
 from xdist.remote import Producer
 from xdist.scheduler import LoadFileScheduling
 from xdist.workermanage import WorkerController
 
-# Every file with a test that uses the `browser` fixture (tests/conftest.py fails a browser test
-# from a file missing here: the scheduler sees node ids only, not markers).
+# Every file in tests/ with a test that uses the `browser` fixture: the scheduler sees node ids
+# only, not markers (tests/conftest.py errors a browser test from a file missing here, and
+# tests/test_scheduling.py checks that every file here has one).
 BROWSER_FILES = (
     "test_console_trust.py",  # 17 tests, 172 CPU-s serially: the longest file by far
     "test_console_browser.py",
@@ -46,45 +45,55 @@ LONG_FILES = (
 )
 
 
-def file_order(path_name: str, is_browser_file: bool) -> tuple[bool, int]:
+def is_browser_file(path_from_root: str) -> bool:
+    """Whether a test file (its path from the repository's root, as in a node id) drives Chromium."""
+    return path_from_root in {f"tests/{name}" for name in BROWSER_FILES}
+
+
+def file_order(path_from_root: str) -> tuple[bool, int]:
     """Sort key of a test file: browser files first, then LONG_FILES in their order, then the rest
     (each file's tests stay together and in order)."""
-    long_rank = LONG_FILES.index(path_name) if path_name in LONG_FILES else len(LONG_FILES)
-    return (not is_browser_file, long_rank)
+    name = path_from_root.removeprefix("tests/")
+    long_rank = LONG_FILES.index(name) if name in LONG_FILES else len(LONG_FILES)
+    return (not is_browser_file(path_from_root), long_rank)
 
 
 class PagesCappedScheduling(LoadFileScheduling):
     """xdist's `loadfile` (a file's tests on one worker, in order, files in collection order), but
-    only the first `page_workers` of the live workers take files in BROWSER_FILES: at most that
-    many pages draw at once, however many workers there are."""
+    no more than `page_workers` workers hold unfinished tests of browser files at once, however
+    many workers there are. The cap is a count, not a place in the list of workers: a worker
+    started in place of a crashed one can take the rest of the crashed one's browser file. A
+    worker that may take nothing now waits, as xdist's own do for the queue's end: a crashed
+    worker's files put back are offered to it, and the DSession shuts every worker down once
+    every test has run."""
 
     def __init__(self, config: pytest.Config, log: Producer | None = None, *, page_workers: int) -> None:
         super().__init__(config, log)
         self.page_workers = page_workers
 
+    def _holds_pages(self, node: WorkerController) -> bool:
+        return any(
+            is_browser_file(scope) and not all(unit.values())
+            for scope, unit in self.assigned_work[node].items()
+        )
+
     def _may_take(self, node: WorkerController, scope: str) -> bool:
-        if PurePosixPath(scope).name not in BROWSER_FILES:
+        if not is_browser_file(scope) or self._holds_pages(node):
             return True
-        return self.nodes.index(node) < self.page_workers
+        return sum(1 for other in self.nodes if self._holds_pages(other)) < self.page_workers
 
     def _next_scope(self, node: WorkerController) -> str | None:
         return next((scope for scope in self.workqueue if self._may_take(node, scope)), None)
 
     def _assign_work_unit(self, node: WorkerController) -> None:
-        scope = self._next_scope(node)
-        if scope is None:
-            return
-        work_unit = self.workqueue.pop(scope)
-        self.assigned_work.setdefault(node, {})[scope] = work_unit
-        collection = self.registered_collections[node]
-        node.send_runtest_some([collection.index(nodeid) for nodeid, done in work_unit.items() if not done])
-
-    def _reschedule(self, node: WorkerController) -> None:
-        if node.shutting_down:
-            return
-        if self._next_scope(node) is None:
-            node.shutdown()  # it finishes what it holds; nothing left is for it
-            return
-        if self._pending_of(self.assigned_work[node]) > 2:  # xdist's own low-water mark
-            return
-        self._assign_work_unit(node)
+        """The next file this worker may take, skipping files already finished: xdist puts back
+        every file a crashed worker held, finished ones too, and a worker sent an empty file
+        would never report a test, so it would never be given another."""
+        while (scope := self._next_scope(node)) is not None:
+            work_unit = self.workqueue.pop(scope)
+            self.assigned_work.setdefault(node, {})[scope] = work_unit
+            collection = self.registered_collections[node]
+            left = [collection.index(nodeid) for nodeid, done in work_unit.items() if not done]
+            if left:
+                node.send_runtest_some(left)
+                return
