@@ -124,9 +124,11 @@ def pytest_sessionstart(session: pytest.Session) -> None:
 
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
     """`-n auto`: a worker per core and one more; two more for the inner loop (`-m "not browser"`).
-    Only a worker per core takes the browser files (tests/scheduling.py), so no more pages draw at
-    once than with a worker per core, while the extra workers run the files that mostly wait on
-    real time."""
+    No more workers than cores hold browser files at once (tests/scheduling.py), so no more pages
+    draw at once than with a worker per core, while the extra workers run the files that mostly
+    wait on real time. PYTEST_XDIST_AUTO_NUM_WORKERS, as in xdist's own `-n auto`, says how many instead."""
+    if told := os.environ.get("PYTEST_XDIST_AUTO_NUM_WORKERS"):
+        return int(told)
     cores = len(os.sched_getaffinity(0))
     inner_loop = (config.getoption("markexpr") or "").split() == ["not", "browser"]
     return cores + 2 if inner_loop else cores + 1
@@ -134,7 +136,7 @@ def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
 
 @pytest.hookimpl(tryfirst=True)
 def pytest_xdist_make_scheduler(config: pytest.Config, log: Producer) -> PagesCappedScheduling | None:
-    """`--dist loadfile` as tests/scheduling.py deals it: browser files to a worker per core."""
+    """`--dist loadfile` as tests/scheduling.py deals it: browser files on a worker per core at most."""
     if config.getvalue("dist") != "loadfile":
         return None
     return PagesCappedScheduling(config, log, page_workers=len(os.sched_getaffinity(0)))

@@ -196,10 +196,15 @@ def fake_config(dist: str = "loadfile", markexpr: str = "") -> Any:
     )
 
 
-def test_the_readmes_command_gets_this_scheduler_and_a_worker_more_than_the_cores() -> None:
+def test_the_readmes_command_gets_this_scheduler_and_a_worker_more_than_the_cores(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.delenv("PYTEST_XDIST_AUTO_NUM_WORKERS", raising=False)
     cores = len(os.sched_getaffinity(0))
     scheduler = conftest.pytest_xdist_make_scheduler(fake_config(), log=None)  # type: ignore[arg-type]
     assert isinstance(scheduler, PagesCappedScheduling) and scheduler.page_workers == cores
     assert conftest.pytest_xdist_make_scheduler(fake_config(dist="load"), log=None) is None  # type: ignore[arg-type]
     assert conftest.pytest_xdist_auto_num_workers(fake_config()) == cores + 1
     assert conftest.pytest_xdist_auto_num_workers(fake_config(markexpr="not browser")) == cores + 2
+    monkeypatch.setenv("PYTEST_XDIST_AUTO_NUM_WORKERS", "5")
+    assert conftest.pytest_xdist_auto_num_workers(fake_config()) == 5
