@@ -13,7 +13,7 @@ from robot_sim.warm import warm_up
 from server.client import RobotClient
 from tests.console_page import PAGE_WAIT_MS
 from tests.frame_cap import CappedBrowser
-from tests.scheduling import PagesCappedScheduling, file_order, is_browser_file
+from tests.scheduling import PagesCappedScheduling, file_of, file_order, is_browser_file
 from tests.zygote import Zygote
 from web.browser import chromium_available, launch
 
@@ -160,15 +160,11 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     for item in items:
         if "browser" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.browser)
-    items.sort(key=lambda item: file_order(file_of(item)))
-
-
-def file_of(item: pytest.Item) -> str:
-    return item.nodeid.split("::", 1)[0]
+    items.sort(key=lambda item: file_order(file_of(item.nodeid)))
 
 
 def pytest_runtest_setup(item: pytest.Item) -> None:
     """A test that drives Chromium from a file missing in BROWSER_FILES errors: the scheduler, which
     sees node ids only, would let every worker take its file."""
-    if item.get_closest_marker("browser") and not is_browser_file(file_of(item)):
-        pytest.fail(f"{file_of(item)} drives Chromium: add it to BROWSER_FILES in tests/scheduling.py")
+    if item.get_closest_marker("browser") and not is_browser_file(path := file_of(item.nodeid)):
+        pytest.fail(f"{path} drives Chromium: add it to BROWSER_FILES in tests/scheduling.py")

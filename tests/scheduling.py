@@ -45,9 +45,17 @@ LONG_FILES = (
 )
 
 
+BROWSER_PATHS = frozenset(f"tests/{name}" for name in BROWSER_FILES)  # as node ids name them
+
+
+def file_of(nodeid: str) -> str:
+    """A test's file, by its path from the repository's root: the scope xdist's loadfile deals."""
+    return nodeid.split("::", 1)[0]
+
+
 def is_browser_file(path_from_root: str) -> bool:
     """Whether a test file (its path from the repository's root, as in a node id) drives Chromium."""
-    return path_from_root in {f"tests/{name}" for name in BROWSER_FILES}
+    return path_from_root in BROWSER_PATHS
 
 
 def file_order(path_from_root: str) -> tuple[bool, int]:

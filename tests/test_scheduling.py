@@ -12,7 +12,7 @@ from typing import Any
 import pytest
 
 from tests import conftest
-from tests.scheduling import BROWSER_FILES, LONG_FILES, PagesCappedScheduling, file_order
+from tests.scheduling import BROWSER_FILES, LONG_FILES, PagesCappedScheduling, file_of, file_order
 
 TESTS_DIR = Path(__file__).resolve().parent
 PAGE_FILES = [f"tests/{name}" for name in BROWSER_FILES[:3]]
@@ -39,8 +39,14 @@ def collection(tests_per_file: tuple[int, ...] = (3, 2, 6, 5, 1, 1, 2)) -> list[
     return [f"{path}::test_{i}" for path, n in zip(files, tests_per_file, strict=True) for i in range(n)]
 
 
-def file_of(test: str) -> str:
-    return test.split("::")[0]
+def fake_config(dist: str = "loadfile", markexpr: str = "", workers: int = 3) -> Any:
+    """What the scheduler and the suite's xdist hooks read of pytest's config."""
+    values = {"dist": dist, "tx": [f"{workers}*popen"]}
+    return SimpleNamespace(
+        getvalue=values.get,
+        getoption=lambda name: markexpr if name == "markexpr" else None,
+        option=SimpleNamespace(loadscopereorder=False),
+    )
 
 
 class Run:
@@ -50,12 +56,8 @@ class Run:
     (xdist's low-water mark), or one would hoard the queue while the others idle."""
 
     def __init__(self, ids: list[str], workers: int, page_workers: int) -> None:
-        config: Any = SimpleNamespace(
-            getvalue=lambda name: [f"{workers}*popen"] if name == "tx" else None,
-            option=SimpleNamespace(loadscopereorder=False),
-        )
         self.ids = ids
-        self.scheduler = PagesCappedScheduling(config, page_workers=page_workers)
+        self.scheduler = PagesCappedScheduling(fake_config(workers=workers), page_workers=page_workers)
         self.nodes: list[FakeWorker] = []
         self.ran: list[tuple[str, str]] = []
         self.most_on_pages = 0
@@ -185,15 +187,6 @@ def test_a_browser_test_from_a_file_not_in_browser_files_errors() -> None:
         conftest.pytest_runtest_setup(item("tests/test_new_page.py"))
     with pytest.raises(pytest.fail.Exception):  # the same name elsewhere is another file
         conftest.pytest_runtest_setup(item(f"tests/sub/{BROWSER_FILES[0]}"))
-
-
-def fake_config(dist: str = "loadfile", markexpr: str = "") -> Any:
-    values = {"dist": dist, "tx": ["3*popen"]}
-    return SimpleNamespace(
-        getvalue=values.get,
-        getoption=lambda name: markexpr if name == "markexpr" else None,
-        option=SimpleNamespace(loadscopereorder=False),
-    )
 
 
 def test_the_readmes_command_gets_this_scheduler_and_a_worker_more_than_the_cores(

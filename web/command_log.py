@@ -43,9 +43,19 @@ class CommandLog:
         self._plot_event(message)
         view, ended = self.history.event(message)
         if view is not None:
-            self.show_applied([(view, ended)])
+            self._show_applied([(view, ended)])
 
-    def show_applied(self, applied: list[tuple[CommandView, bool]]) -> None:
+    def accepted(self, view: CommandView, command_id: int) -> None:
+        """The robot's 202 for a send from here: its line, and the events held until it landed."""
+        self._show_applied(self.history.accepted(view, command_id))
+        self.changed(view)
+
+    def refused(self, view: CommandView, detail: str) -> None:
+        """A send that never reached the robot: its line, and the events no send waits for now."""
+        self._show_applied(self.history.refused(view, detail))
+        self.changed(view)
+
+    def _show_applied(self, applied: list[tuple[CommandView, bool]]) -> None:
         """Events the history applied (`history.event`, or released by a 202 or a refusal):
         each line redrawn, each end announced."""
         for view, ended in applied:

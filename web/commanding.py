@@ -115,9 +115,7 @@ class Commanding:
             # Not sent after all (a check, the twin, the answer's parsing): never left "sent",
             # which would hold every event of its behavior as maybe its own (web/history.py).
             if view.phase == "sent":
-                detail = f"not sent: {type(err).__name__}: {err}"
-                self._log.show_applied(self._log.history.refused(view, detail))
-                self._log.changed(view)
+                self._log.refused(view, f"not sent: {type(err).__name__}: {err}")
             raise
 
     def _deliver(self, view: CommandView, behavior: str, params: dict[str, Any], sender: str) -> None:
@@ -144,18 +142,17 @@ class Commanding:
             wait_s = HTTP_TIMEOUT_S + held_s if held_until is not None else None
             accepted = self._link.client.command(behavior, sender=sender, http_timeout_s=wait_s, **stamped)
         except RobotError as err:
-            self._log.show_applied(self._log.history.refused(view, str(err.detail)))
+            self._log.refused(view, str(err.detail))
             self._notifier.notify("Command refused", str(err.detail), "red")
         except httpx.HTTPError as err:
-            self._log.show_applied(self._log.history.refused(view, f"link: {type(err).__name__}"))
+            self._log.refused(view, f"link: {type(err).__name__}")
             self._notifier.notify("Command not delivered", f"{type(err).__name__}: {err}", "red")
         else:
             if held_until is not None:
                 view.detail = ""  # it has arrived
-            self._log.show_applied(self._log.history.accepted(view, accepted.id))
+            self._log.accepted(view, accepted.id)
             for warning in accepted.warnings:
                 self._notifier.notify(f"#{accepted.id}: check the approach", warning, "orange")
-        self._log.changed(view)
 
     def plan_send(self, behavior: str, params: dict[str, Any]) -> tuple[SendPlan, float | None]:
         """What the link's schedule means for this command sent now (web/link_plan.py), and the

@@ -143,7 +143,7 @@ class FrontDoor:
         """host:port as a URL writes it (an IPv6 host in brackets); after start()."""
         return host_port(self._host, self.port_bound or 0)
 
-    async def _bind(self) -> asyncio.Server:
+    async def _bind(self) -> None:
         server = await asyncio.start_server(self._handle, self._host, self._port, reuse_address=True)
         # The policy is set here, on the loop, before any connection's handler can run (they
         # wait for this coroutine to yield): set by start() after, a browser reconnecting to a
@@ -151,7 +151,6 @@ class FrontDoor:
         self._server = server  # here, not from start(): closed by close() even if start() timed out
         port = self.port_bound = int(server.sockets[0].getsockname()[1])
         self.policy = AccessPolicy(self._host, port, None, (), self._allow_origins)
-        return server
 
     def close(self) -> None:
         """Stop listening, end the connections it still carries, and join its thread."""
