@@ -251,8 +251,10 @@ def test_blackout_hold_and_drop_live(fast_server: ServiceProcess, tmp_path: Path
         assert all(b["seq"] - a["seq"] == 1 for (_, a), (_, b) in itertools.pairwise(states))  # all, in order
         # Arrival times are this process's: a host stall makes them late (never early), so the
         # window starts a stall after the last message before the loss of signal is due (1.1 s;
-        # one arrived at 1.17 s with a core hogged) and the held burst may come a stall late.
-        in_window = [t for t, _ in states if 1.1 + HOST_STALL_S / 2 < t < 2.05]
+        # one arrived at 1.17 s with a core hogged, and at 1.45 s in a fresh-clone CI run with a
+        # core hogged and three test workers) and the held burst may come a stall late. The whole
+        # window, to its first instant, is judged below on the link's own record.
+        in_window = [t for t, _ in states if 1.1 + HOST_STALL_S < t < 2.05]
         assert not in_window  # nothing arrives during the loss of signal...
         burst = [t for t, _ in states if 2.05 <= t < 2.2 + HOST_STALL_S / 2]
 
